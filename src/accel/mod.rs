@@ -1,0 +1,639 @@
+//! The safe layer over Embree: the only module of the renderer that may use `unsafe`.
+//!
+//! - [`Device`] owns an `RTCDevice` and turns Embree's error callback into [`EmbreeError`].
+//! - [`SceneBuilder`] attaches triangle meshes; [`SceneBuilder::commit`] gives an immutable
+//!   [`Scene`] that is `Send + Sync` (Embree queries are thread-safe after a commit).
+//! - Queries: [`Scene::intersect1`], [`Scene::occluded1`], and the 4-wide packet queries
+//!   [`Scene::intersect4`] / [`Scene::occluded4`] over a [`RayHit4`] in Embree's own
+//!   structure-of-arrays layout, with an active-lane mask and a [`Coherence`] hint.
+//!
+//! Both Embree 3 (`RTCIntersectContext`) and Embree 4 (`RTCIntersectArguments`) are
+//! supported; `build.rs` sets the cfg `embree3` or `embree4` from what `embree-sys` found.
+#![allow(unsafe_code)]
+
+use embree_sys as sys;
+use glam::Vec3;
+use std::ffi::{c_char, c_void, CStr};
+use std::fmt;
+use std::sync::{Arc, Mutex};
+
+/// An error reported by Embree through its error callback (or by a null handle).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EmbreeError {
+    /// Embree's `RTCError` code.
+    pub code: u32,
+    /// Embree's message (or a description of the call that failed).
+    pub message: String,
+}
+
+impl EmbreeError {
+    fn code_name(&self) -> &'static str {
+        match self.code {
+            sys::RTC_ERROR_NONE => "RTC_ERROR_NONE",
+            sys::RTC_ERROR_UNKNOWN => "RTC_ERROR_UNKNOWN",
+            sys::RTC_ERROR_INVALID_ARGUMENT => "RTC_ERROR_INVALID_ARGUMENT",
+            sys::RTC_ERROR_INVALID_OPERATION => "RTC_ERROR_INVALID_OPERATION",
+            sys::RTC_ERROR_OUT_OF_MEMORY => "RTC_ERROR_OUT_OF_MEMORY",
+            sys::RTC_ERROR_UNSUPPORTED_CPU => "RTC_ERROR_UNSUPPORTED_CPU",
+            sys::RTC_ERROR_CANCELLED => "RTC_ERROR_CANCELLED",
+            _ => "RTC_ERROR_?",
+        }
+    }
+}
+
+impl fmt::Display for EmbreeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Embree error {} ({}): {}", self.code_name(), self.code, self.message)
+    }
+}
+
+impl std::error::Error for EmbreeError {}
+
+/// Where the error callback leaves the first error since the last check.
+type ErrorSlot = Mutex<Option<EmbreeError>>;
+
+unsafe extern "C" fn error_callback(user: *mut c_void, code: sys::RTCError, msg: *const c_char) {
+    // SAFETY: `user` is the `ErrorSlot` boxed inside `DeviceInner`, which outlives the
+    // device (it is dropped after `rtcReleaseDevice`). `msg` is a NUL-terminated string
+    // owned by Embree for the duration of the call, or null.
+    let slot = unsafe { &*(user as *const ErrorSlot) };
+    let message = if msg.is_null() {
+        String::from("(no message)")
+    } else {
+        // SAFETY: see above; Embree passes a valid C string.
+        unsafe { CStr::from_ptr(msg) }.to_string_lossy().into_owned()
+    };
+    if let Ok(mut s) = slot.lock() {
+        if s.is_none() {
+            *s = Some(EmbreeError { code, message });
+        }
+    }
+}
+
+struct DeviceInner {
+    raw: sys::RTCDevice,
+    errors: Box<ErrorSlot>,
+}
+
+// SAFETY: Embree devices are thread-safe handles; the error slot is behind a Mutex.
+unsafe impl Send for DeviceInner {}
+// SAFETY: as above.
+unsafe impl Sync for DeviceInner {}
+
+impl Drop for DeviceInner {
+    fn drop(&mut self) {
+        // SAFETY: `raw` was returned non-null by `rtcNewDevice` and is released once here.
+        unsafe { sys::rtcReleaseDevice(self.raw) };
+    }
+}
+
+/// An Embree device. Cloning shares the same device.
+#[derive(Clone)]
+pub struct Device {
+    inner: Arc<DeviceInner>,
+}
+
+impl Device {
+    /// A device with Embree's default configuration.
+    pub fn new() -> Result<Device, EmbreeError> {
+        Device::with_config("")
+    }
+
+    /// A device with an Embree configuration string (for example `"threads=1"`).
+    /// An invalid configuration is an error carrying Embree's code.
+    pub fn with_config(config: &str) -> Result<Device, EmbreeError> {
+        let cfg = std::ffi::CString::new(config).map_err(|_| EmbreeError {
+            code: sys::RTC_ERROR_INVALID_ARGUMENT,
+            message: "device configuration contains a NUL byte".into(),
+        })?;
+        // SAFETY: `cfg` is a valid NUL-terminated string for the duration of the call.
+        let raw = unsafe { sys::rtcNewDevice(cfg.as_ptr()) };
+        if raw.is_null() {
+            // SAFETY: a null device asks for the error of the last failed device creation
+            // on this thread, as documented for `rtcGetDeviceError`.
+            let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(EmbreeError {
+                code,
+                message: format!("rtcNewDevice failed for configuration {config:?}"),
+            });
+        }
+        let errors: Box<ErrorSlot> = Box::new(Mutex::new(None));
+        let user = &*errors as *const ErrorSlot as *mut c_void;
+        // SAFETY: `raw` is a live device; `user` points into a Box whose address is stable
+        // and which lives as long as the device (see `DeviceInner`'s field order and Drop).
+        unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), user) };
+        Ok(Device {
+            inner: Arc::new(DeviceInner { raw, errors }),
+        })
+    }
+
+    /// Takes the first error Embree reported since the last check, if any.
+    fn take_error(&self) -> Result<(), EmbreeError> {
+        let mut slot = self.inner.errors.lock().unwrap_or_else(|e| e.into_inner());
+        match slot.take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// A new, empty scene on this device.
+    pub fn scene_builder(&self) -> Result<SceneBuilder, EmbreeError> {
+        // SAFETY: the device is live for as long as `self.inner` is.
+        let raw = unsafe { sys::rtcNewScene(self.inner.raw) };
+        self.take_error()?;
+        if raw.is_null() {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_UNKNOWN,
+                message: "rtcNewScene returned null".into(),
+            });
+        }
+        Ok(SceneBuilder {
+            device: self.clone(),
+            raw,
+            triangles: 0,
+            geometries: 0,
+        })
+    }
+}
+
+/// A scene being assembled. Not shareable until [`SceneBuilder::commit`].
+pub struct SceneBuilder {
+    device: Device,
+    raw: sys::RTCScene,
+    triangles: usize,
+    geometries: u32,
+}
+
+impl Drop for SceneBuilder {
+    fn drop(&mut self) {
+        if !self.raw.is_null() {
+            // SAFETY: `raw` came from `rtcNewScene` and has not been handed to a `Scene`.
+            unsafe { sys::rtcReleaseScene(self.raw) };
+        }
+    }
+}
+
+/// Vertex data format of a triangle mesh handed to [`SceneBuilder::attach_triangles_with`];
+/// only `Float3` is valid for triangles, the others exist so that tests can provoke
+/// Embree's own validation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VertexFormat {
+    /// Three `f32` per vertex.
+    Float3,
+    /// An undefined format: Embree rejects it.
+    Undefined,
+}
+
+impl SceneBuilder {
+    /// Attaches a triangle mesh and returns its geometry id (ids count up from 0 in the
+    /// order meshes are attached). Vertex and index data are copied into Embree-owned,
+    /// padded buffers once; nothing else keeps a copy.
+    pub fn attach_triangles(
+        &mut self,
+        vertices: &[[f32; 3]],
+        indices: &[[u32; 3]],
+    ) -> Result<u32, EmbreeError> {
+        self.attach_triangles_with(vertices, indices, VertexFormat::Float3)
+    }
+
+    /// [`SceneBuilder::attach_triangles`] with an explicit vertex format.
+    pub fn attach_triangles_with(
+        &mut self,
+        vertices: &[[f32; 3]],
+        indices: &[[u32; 3]],
+        format: VertexFormat,
+    ) -> Result<u32, EmbreeError> {
+        let nv = vertices.len() as u32;
+        if let Some((i, tri)) = indices
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.iter().any(|&k| k >= nv))
+        {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_INVALID_ARGUMENT,
+                message: format!(
+                    "triangle {i} has vertex index {tri:?} out of range (mesh has {nv} vertices)"
+                ),
+            });
+        }
+        let dev = self.device.inner.raw;
+        // SAFETY: `dev` is live; the geometry is released below on every path after use.
+        let geom = unsafe { sys::rtcNewGeometry(dev, sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        self.device.take_error()?;
+        let fmt = match format {
+            VertexFormat::Float3 => sys::RTC_FORMAT_FLOAT3,
+            VertexFormat::Undefined => sys::RTC_FORMAT_UNDEFINED,
+        };
+        let result = (|| {
+            // SAFETY: `geom` is a live geometry; Embree allocates a buffer of `nv` items
+            // of 12 bytes (with its own padding) and returns a pointer to it or null.
+            let vb = unsafe {
+                sys::rtcSetNewGeometryBuffer(geom, sys::RTC_BUFFER_TYPE_VERTEX, 0, fmt, 12, nv as usize)
+            } as *mut [f32; 3];
+            self.device.take_error()?;
+            if !vb.is_null() && nv > 0 {
+                // SAFETY: `vb` points to at least `nv` writable, 4-byte aligned [f32; 3]
+                // slots allocated by Embree above; the source slice has exactly `nv` items.
+                unsafe { std::ptr::copy_nonoverlapping(vertices.as_ptr(), vb, vertices.len()) };
+            }
+            let nt = indices.len();
+            // SAFETY: as for the vertex buffer, with `nt` items of three u32.
+            let ib = unsafe {
+                sys::rtcSetNewGeometryBuffer(geom, sys::RTC_BUFFER_TYPE_INDEX, 0, sys::RTC_FORMAT_UINT3, 12, nt)
+            } as *mut [u32; 3];
+            self.device.take_error()?;
+            if !ib.is_null() && nt > 0 {
+                // SAFETY: `ib` holds `nt` writable [u32; 3] slots; the source has `nt` items.
+                unsafe { std::ptr::copy_nonoverlapping(indices.as_ptr(), ib, nt) };
+            }
+            // SAFETY: `geom` is live and its buffers are set.
+            unsafe { sys::rtcCommitGeometry(geom) };
+            self.device.take_error()?;
+            // SAFETY: `self.raw` and `geom` are live; the scene retains the geometry.
+            let id = unsafe { sys::rtcAttachGeometry(self.raw, geom) };
+            self.device.take_error()?;
+            Ok(id)
+        })();
+        // SAFETY: drop our reference; the scene holds its own if attaching succeeded.
+        unsafe { sys::rtcReleaseGeometry(geom) };
+        let id = result?;
+        self.triangles += indices.len();
+        self.geometries += 1;
+        Ok(id)
+    }
+
+    /// Builds the BVH. The result is immutable and can be shared across threads.
+    pub fn commit(mut self) -> Result<Scene, EmbreeError> {
+        // SAFETY: `self.raw` is a live scene; committing is the documented final step.
+        unsafe { sys::rtcCommitScene(self.raw) };
+        self.device.take_error()?;
+        let raw = std::mem::replace(&mut self.raw, std::ptr::null_mut());
+        Ok(Scene {
+            device: self.device.clone(),
+            raw,
+            triangles: self.triangles,
+            geometries: self.geometries,
+        })
+    }
+}
+
+/// A committed Embree scene: immutable, `Send + Sync`.
+pub struct Scene {
+    device: Device,
+    raw: sys::RTCScene,
+    triangles: usize,
+    geometries: u32,
+}
+
+// SAFETY: after `rtcCommitScene`, Embree documents all query functions as thread-safe, and
+// `Scene` exposes no mutation.
+unsafe impl Send for Scene {}
+// SAFETY: as above.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: `raw` is the committed scene this value owns; released once.
+        unsafe { sys::rtcReleaseScene(self.raw) };
+        let _ = &self.device; // the device outlives the scene (dropped after this)
+    }
+}
+
+/// A ray segment `org + t·dir` for `t` in `[tnear, tfar]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub org: Vec3,
+    /// Direction (need not be normalised; `t` is in units of its length).
+    pub dir: Vec3,
+    /// Start of the segment.
+    pub tnear: f32,
+    /// End of the segment.
+    pub tfar: f32,
+}
+
+impl Ray {
+    /// A ray over `[0, ∞)`.
+    pub fn new(org: Vec3, dir: Vec3) -> Ray {
+        Ray {
+            org,
+            dir,
+            tnear: 0.0,
+            tfar: f32::INFINITY,
+        }
+    }
+}
+
+/// The closest hit along a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray (in units of `dir`).
+    pub t: f32,
+    /// Geometry id (the order meshes were attached in).
+    pub geom_id: u32,
+    /// Triangle index within the mesh.
+    pub prim_id: u32,
+    /// Barycentric coordinate of vertex 1.
+    pub u: f32,
+    /// Barycentric coordinate of vertex 2.
+    pub v: f32,
+    /// Unnormalised geometric normal, `(v1 − v0) × (v2 − v0)`.
+    pub ng: Vec3,
+}
+
+/// How coherent the rays of a query are; Embree traverses differently for each. Coherent
+/// is right for camera rays and for shadow rays from a 2×2 pixel quad; it halves the rate
+/// of incoherent packets, so secondary rays must say `Incoherent`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coherence {
+    /// Rays of the packet start close together and point in similar directions.
+    Coherent,
+    /// Anything else.
+    Incoherent,
+}
+
+/// A packet of four rays and their hits in Embree's SoA layout (16-byte aligned), so that
+/// the renderer can fill it straight from its 4-wide vectors.
+#[repr(transparent)]
+#[derive(Clone, Copy, Default)]
+pub struct RayHit4(sys::RTCRayHit4);
+
+const _: () = assert!(std::mem::align_of::<RayHit4>() >= 16);
+
+impl RayHit4 {
+    /// An empty packet.
+    pub fn new() -> RayHit4 {
+        let mut p = RayHit4::default();
+        p.0.ray.mask = [u32::MAX; 4];
+        p.0.hit.geomID = [sys::RTC_INVALID_GEOMETRY_ID; 4];
+        p
+    }
+
+    /// Sets lane `k`'s ray and clears its hit.
+    #[inline]
+    pub fn set_ray(&mut self, k: usize, ray: &Ray) {
+        let r = &mut self.0.ray;
+        r.org_x[k] = ray.org.x;
+        r.org_y[k] = ray.org.y;
+        r.org_z[k] = ray.org.z;
+        r.dir_x[k] = ray.dir.x;
+        r.dir_y[k] = ray.dir.y;
+        r.dir_z[k] = ray.dir.z;
+        r.tnear[k] = ray.tnear;
+        r.tfar[k] = ray.tfar;
+        r.time[k] = 0.0;
+        r.mask[k] = u32::MAX;
+        r.flags[k] = 0;
+        r.id[k] = k as u32;
+        self.0.hit.geomID[k] = sys::RTC_INVALID_GEOMETRY_ID;
+    }
+
+    /// Lane `k`'s ray (its `tfar` is the hit distance after a query that hit).
+    #[inline]
+    pub fn ray(&self, k: usize) -> Ray {
+        let r = &self.0.ray;
+        Ray {
+            org: Vec3::new(r.org_x[k], r.org_y[k], r.org_z[k]),
+            dir: Vec3::new(r.dir_x[k], r.dir_y[k], r.dir_z[k]),
+            tnear: r.tnear[k],
+            tfar: r.tfar[k],
+        }
+    }
+
+    /// Lane `k`'s hit after [`Scene::intersect4`], or `None` for a miss.
+    #[inline]
+    pub fn hit(&self, k: usize) -> Option<Hit> {
+        let h = &self.0.hit;
+        if h.geomID[k] == sys::RTC_INVALID_GEOMETRY_ID {
+            return None;
+        }
+        Some(Hit {
+            t: self.0.ray.tfar[k],
+            geom_id: h.geomID[k],
+            prim_id: h.primID[k],
+            u: h.u[k],
+            v: h.v[k],
+            ng: Vec3::new(h.Ng_x[k], h.Ng_y[k], h.Ng_z[k]),
+        })
+    }
+
+    /// Lane `k` after [`Scene::occluded4`]: Embree sets `tfar` to −∞ for an occluded ray.
+    #[inline]
+    pub fn occluded(&self, k: usize) -> bool {
+        self.0.ray.tfar[k] == f32::NEG_INFINITY
+    }
+}
+
+/// The `valid` argument of the packet queries: −1 marks an active lane. Must be 16-byte
+/// aligned.
+#[repr(C, align(16))]
+struct Valid4([i32; 4]);
+
+impl Valid4 {
+    fn from_mask(active: [bool; 4]) -> Valid4 {
+        Valid4(active.map(|a| if a { -1 } else { 0 }))
+    }
+}
+
+#[cfg(embree3)]
+mod query {
+    //! Embree 3: queries take an `RTCIntersectContext` (the `rtcInitIntersectContext`
+    //! helper is inline in the header, so it is rebuilt here).
+    use super::{sys, Coherence};
+
+    pub struct Ctx(pub sys::RTCIntersectContext);
+
+    impl Ctx {
+        #[inline]
+        pub fn new(c: Coherence) -> Ctx {
+            let mut ctx = sys::RTCIntersectContext::default();
+            ctx.flags = match c {
+                Coherence::Coherent => sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
+                Coherence::Incoherent => sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+            };
+            ctx.filter = None;
+            ctx.instID = [sys::RTC_INVALID_GEOMETRY_ID; 1];
+            Ctx(ctx)
+        }
+    }
+}
+
+#[cfg(embree4)]
+mod query {
+    //! Embree 4: queries take optional `RTCIntersectArguments` / `RTCOccludedArguments`
+    //! (the `rtcInit*Arguments` helpers are inline in the header, so they are rebuilt here).
+    use super::{sys, Coherence};
+
+    fn flags(c: Coherence) -> sys::RTCRayQueryFlags {
+        match c {
+            Coherence::Coherent => sys::RTC_RAY_QUERY_FLAG_COHERENT,
+            Coherence::Incoherent => sys::RTC_RAY_QUERY_FLAG_INCOHERENT,
+        }
+    }
+
+    pub fn intersect_args(c: Coherence) -> sys::RTCIntersectArguments {
+        let mut a = sys::RTCIntersectArguments::default();
+        a.flags = flags(c);
+        a.feature_mask = sys::RTC_FEATURE_FLAG_ALL;
+        a.context = std::ptr::null_mut();
+        a.filter = None;
+        a.intersect = None;
+        a
+    }
+
+    pub fn occluded_args(c: Coherence) -> sys::RTCOccludedArguments {
+        let mut a = sys::RTCOccludedArguments::default();
+        a.flags = flags(c);
+        a.feature_mask = sys::RTC_FEATURE_FLAG_ALL;
+        a.context = std::ptr::null_mut();
+        a.filter = None;
+        a.occluded = None;
+        a
+    }
+}
+
+fn to_rtc_ray(ray: &Ray) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: ray.org.x,
+        org_y: ray.org.y,
+        org_z: ray.org.z,
+        tnear: ray.tnear,
+        dir_x: ray.dir.x,
+        dir_y: ray.dir.y,
+        dir_z: ray.dir.z,
+        time: 0.0,
+        tfar: ray.tfar,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+impl Scene {
+    /// Number of triangles over all meshes.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles
+    }
+
+    /// Number of attached meshes.
+    pub fn geometry_count(&self) -> u32 {
+        self.geometries
+    }
+
+    /// The closest hit along `ray`, if any.
+    #[inline]
+    pub fn intersect1(&self, ray: &Ray) -> Option<Hit> {
+        let mut rh = sys::RTCRayHit {
+            ray: to_rtc_ray(ray),
+            hit: sys::RTCHit {
+                geomID: sys::RTC_INVALID_GEOMETRY_ID,
+                ..Default::default()
+            },
+        };
+        #[cfg(embree3)]
+        {
+            let mut ctx = query::Ctx::new(Coherence::Incoherent);
+            // SAFETY: the scene is committed; `ctx` and `rh` are valid for the call.
+            unsafe { sys::rtcIntersect1(self.raw, &mut ctx.0, &mut rh) };
+        }
+        #[cfg(embree4)]
+        {
+            let mut args = query::intersect_args(Coherence::Incoherent);
+            // SAFETY: the scene is committed; `args` and `rh` are valid for the call.
+            unsafe { sys::rtcIntersect1(self.raw, &mut rh, &mut args) };
+        }
+        if rh.hit.geomID == sys::RTC_INVALID_GEOMETRY_ID {
+            return None;
+        }
+        Some(Hit {
+            t: rh.ray.tfar,
+            geom_id: rh.hit.geomID,
+            prim_id: rh.hit.primID,
+            u: rh.hit.u,
+            v: rh.hit.v,
+            ng: Vec3::new(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z),
+        })
+    }
+
+    /// Whether anything blocks `ray` within `[tnear, tfar]`.
+    #[inline]
+    pub fn occluded1(&self, ray: &Ray) -> bool {
+        let mut r = to_rtc_ray(ray);
+        #[cfg(embree3)]
+        {
+            let mut ctx = query::Ctx::new(Coherence::Incoherent);
+            // SAFETY: the scene is committed; `ctx` and `r` are valid for the call.
+            unsafe { sys::rtcOccluded1(self.raw, &mut ctx.0, &mut r) };
+        }
+        #[cfg(embree4)]
+        {
+            let mut args = query::occluded_args(Coherence::Incoherent);
+            // SAFETY: the scene is committed; `args` and `r` are valid for the call.
+            unsafe { sys::rtcOccluded1(self.raw, &mut r, &mut args) };
+        }
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    /// Closest hits for the active lanes of a packet; inactive lanes are left untouched.
+    #[inline]
+    pub fn intersect4(&self, packet: &mut RayHit4, active: [bool; 4], coherence: Coherence) {
+        let valid = Valid4::from_mask(active);
+        #[cfg(embree3)]
+        {
+            let mut ctx = query::Ctx::new(coherence);
+            // SAFETY: the scene is committed; `valid` and `packet` are 16-byte aligned
+            // (checked by their types) and valid for the call.
+            unsafe { sys::rtcIntersect4(valid.0.as_ptr(), self.raw, &mut ctx.0, &mut packet.0) };
+        }
+        #[cfg(embree4)]
+        {
+            let mut args = query::intersect_args(coherence);
+            // SAFETY: as above, with Embree 4's argument struct.
+            unsafe { sys::rtcIntersect4(valid.0.as_ptr(), self.raw, &mut packet.0, &mut args) };
+        }
+    }
+
+    /// Occlusion for the active lanes of a packet (read with [`RayHit4::occluded`]);
+    /// inactive lanes are left untouched.
+    #[inline]
+    pub fn occluded4(&self, packet: &mut RayHit4, active: [bool; 4], coherence: Coherence) {
+        let valid = Valid4::from_mask(active);
+        #[cfg(embree3)]
+        {
+            let mut ctx = query::Ctx::new(coherence);
+            // SAFETY: the scene is committed; `valid` and the ray part of `packet` are
+            // 16-byte aligned and valid for the call.
+            unsafe { sys::rtcOccluded4(valid.0.as_ptr(), self.raw, &mut ctx.0, &mut packet.0.ray) };
+        }
+        #[cfg(embree4)]
+        {
+            let mut args = query::occluded_args(coherence);
+            // SAFETY: as above, with Embree 4's argument struct.
+            unsafe { sys::rtcOccluded4(valid.0.as_ptr(), self.raw, &mut packet.0.ray, &mut args) };
+        }
+    }
+}
+
+/// Sets flush-to-zero and denormals-are-zero in MXCSR, as Embree asks of every thread
+/// that traces. Call it from rayon's `start_handler` and on the main thread.
+pub fn set_flush_denormals() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[allow(deprecated)]
+        // SAFETY: reading and writing MXCSR only changes this thread's float rounding of
+        // denormals; no memory is touched.
+        unsafe {
+            use std::arch::x86_64::{_mm_getcsr, _mm_setcsr};
+            _mm_setcsr(_mm_getcsr() | 0x8040);
+        }
+    }
+}
+
+/// A rayon pool whose threads all have flush-to-zero/denormals-are-zero set.
+/// `threads == 0` means one per core.
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, rayon::ThreadPoolBuildError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .start_handler(|_| set_flush_denormals())
+        .build()
+}

@@ -1,0 +1,8 @@
+//! stokes: a spectral path tracer that renders fluorescence correctly and fast.
+//!
+//! Geometry queries go to the system Embree through [`accel`], the only module allowed to
+//! use `unsafe`; everything else (spectra, sampling, materials, lights, integrators, film)
+//! is safe Rust.
+#![deny(unsafe_code)]
+
+pub mod accel;
