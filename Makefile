@@ -1,0 +1,23 @@
+# The two commands the README opens with, plus a few conveniences.
+.PHONY: render test deps bench-rays fmt lint
+
+deps:
+	./scripts/install-deps.sh
+
+# Render the measured Cornell box to out/cornell-box.exr and out/cornell-box.png.
+render: deps
+	cargo run --release -- render scenes/cornell-box.toml -o out/cornell-box.exr --png
+
+# The whole test suite (unit, statistical and image tests).
+test: deps
+	cargo test --release --workspace
+
+bench-rays: deps
+	cargo run --release -- bench rays scenes/sphere-100k.toml
+	cargo run --release -- bench rays scenes/cornell-box.toml
+
+fmt:
+	cargo fmt --all
+
+lint:
+	cargo clippy --release --all-targets -- -D warnings

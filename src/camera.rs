@@ -1,0 +1,90 @@
+//! A pinhole camera: position, look-at point, up vector, vertical field of view.
+//!
+//! Film coordinates are in pixels, x to the right and y down, (0, 0) the top-left corner.
+
+use crate::accel::Ray;
+use glam::Vec3;
+
+/// A pinhole camera.
+#[derive(Debug, Clone)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// A camera; `fov_deg` is the vertical field of view. Errors say what is degenerate.
+    pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Result<Camera, String> {
+        let forward = (look_at - position).normalize_or_zero();
+        if forward == Vec3::ZERO {
+            return Err("camera.look_at: must differ from camera.position".into());
+        }
+        let right = forward.cross(up).normalize_or_zero();
+        if right == Vec3::ZERO {
+            return Err("camera.up: must not be parallel to the viewing direction".into());
+        }
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(format!("camera.fov: expected degrees in (0, 180), found {fov_deg}"));
+        }
+        if width == 0 || height == 0 {
+            return Err(format!("camera.resolution: expected positive sizes, found [{width}, {height}]"));
+        }
+        let tan_half = (fov_deg.to_radians() * 0.5).tan();
+        let aspect = width as f32 / height as f32;
+        let true_up = right.cross(forward);
+        Ok(Camera {
+            position,
+            forward,
+            right: right * tan_half * aspect,
+            up: true_up * tan_half,
+            width,
+            height,
+        })
+    }
+
+    /// The same camera at another resolution (same vertical field of view).
+    pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
+        let aspect_old = self.width as f32 / self.height as f32;
+        let aspect = width as f32 / height as f32;
+        Camera {
+            right: self.right * (aspect / aspect_old),
+            width,
+            height,
+            ..self.clone()
+        }
+    }
+
+    /// The primary ray through film position (x, y) in pixels; the direction is unit.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> Ray {
+        let sx = 2.0 * x / self.width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * y / self.height as f32;
+        let dir = (self.forward + self.right * sx + self.up * sy).normalize();
+        Ray::new(self.position, dir)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_ray_looks_at_target_and_right_is_right() {
+        let c = Camera::new(Vec3::new(0.0, 0.0, -5.0), Vec3::ZERO, Vec3::Y, 40.0, 100, 100).unwrap();
+        let r = c.ray(50.0, 50.0);
+        assert!((r.dir - Vec3::Z).length() < 1e-6);
+        // Looking along +z with +y up, image right is −x (right-handed coordinates).
+        assert!(c.ray(99.0, 50.0).dir.x < 0.0);
+        assert!(c.ray(50.0, 0.0).dir.y > 0.0);
+        // Top edge at half the field of view.
+        let top = c.ray(50.0, 0.0).dir;
+        assert!((top.y.atan2(top.z).to_degrees() - 20.0).abs() < 1e-3);
+    }
+}

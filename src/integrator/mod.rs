@@ -1,0 +1,174 @@
+//! Unidirectional spectral path tracing with next-event estimation, MIS between light and
+//! BSDF sampling, Russian roulette, and hero wavelength spectral sampling (HWSS).
+//!
+//! Bookkeeping of one path over its four lanes (lane 0 is the hero, which drives every
+//! sampling decision):
+//! - `beta[k]` = f_k / p_0 over the prefix: lane k's value over the hero's pdf;
+//! - `ratio[j]` = p_j / p_0 over the prefix: how likely lane j, had it been the hero,
+//!   was to generate the same prefix.
+//!
+//! A contribution of lane k is then `beta[k] · L / Σ_j ratio[j]` — the balance heuristic
+//! over the four "hero = j" techniques — and, at a vertex where light sampling and BSDF
+//! sampling compete, the denominator becomes Σ_j ratio[j]·(p_light,j + p_bsdf,j) in the
+//! hero's units. Monochromatic mode is the same code with lanes 1–3 dead from the start
+//! (`ratio = (1, 0, 0, 0)`).
+
+pub mod render;
+
+use crate::accel::Ray;
+use crate::sampler::Pcg32;
+use crate::scene::Scene;
+use glam::{Vec3, Vec4};
+
+/// How wavelengths are sampled per path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Spectral {
+    /// Hero wavelength spectral sampling: four wavelengths per path.
+    Hwss,
+    /// One wavelength per path.
+    Mono,
+}
+
+impl Spectral {
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Spectral::Hwss => "hwss",
+            Spectral::Mono => "mono",
+        }
+    }
+}
+
+/// Counters of one render (summed over threads).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct PathStats {
+    /// Rays traced: camera, bounce and shadow rays.
+    pub rays: u64,
+    /// Samples that came out NaN or infinite and were dropped.
+    pub nonfinite: u64,
+}
+
+/// Offset for spawning rays off a surface, relative to the scene's scale.
+#[inline]
+fn spawn_eps(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// Radiance along a camera ray at the wavelengths `lambda`, already weighted by the
+/// balance heuristic over lanes: summing `xyz(λ_k)·L_k / pdf(λ)` over the lanes gives an
+/// unbiased XYZ estimate.
+pub fn radiance(
+    scene: &Scene,
+    camera_ray: Ray,
+    lambda: Vec4,
+    spectral: Spectral,
+    max_depth: i32,
+    rng: &mut Pcg32,
+    stats: &mut PathStats,
+) -> Vec4 {
+    let mut beta = match spectral {
+        Spectral::Hwss => Vec4::ONE,
+        Spectral::Mono => Vec4::X,
+    };
+    let mut ratio = beta;
+    let mut l = Vec4::ZERO;
+    let mut ray = camera_ray;
+    // After a non-specular bounce: the per-lane BSDF pdfs of the sampled direction and the
+    // prefix ratios before it, for MIS when the ray lands on a light.
+    let mut prev_bsdf: Option<(Vec4, Vec4, Vec3)> = None;
+    let mut depth: i32 = 0;
+    let lights = &scene.lights;
+
+    loop {
+        stats.rays += 1;
+        let Some(hit) = scene.accel.intersect1(&ray) else { break };
+        depth += 1;
+        let p = ray.org + ray.dir * hit.t;
+        let ng = hit.ng.normalize();
+        let wo = -ray.dir;
+
+        if let Some(em) = lights.emitter_of(hit.geom_id) {
+            let le = em.radiance(lambda, ng.dot(wo));
+            if le != Vec4::ZERO {
+                match prev_bsdf {
+                    None => l += beta * le / ratio.element_sum(),
+                    Some((pdf_bsdf, ratio_prev, p_prev)) => {
+                        let d2 = (p - p_prev).length_squared();
+                        let cos_l = ng.dot(wo).abs();
+                        let p_light = lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
+                        let denom = (ratio_prev * (pdf_bsdf + Vec4::splat(p_light))).element_sum();
+                        // beta already holds f/p_bsdf,0; put the hero's pdf back.
+                        l += beta * le * (pdf_bsdf.x / denom);
+                    }
+                }
+            }
+        }
+        if max_depth >= 0 && depth >= max_depth {
+            break;
+        }
+        let Some(mat_id) = scene.geometries[hit.geom_id as usize].material else { break };
+        let material = &scene.materials[mat_id as usize];
+
+        // Next-event estimation: one point on a light, MIS against BSDF sampling.
+        let u_light = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+        if !material.is_specular() {
+            if let Some(ls) = lights.sample(u_light) {
+                let to = ls.p - p;
+                let d2 = to.length_squared();
+                let d = d2.sqrt();
+                let wi = to / d;
+                let cos_l = ls.n.dot(-wi);
+                let em = &lights.emitters[ls.emitter as usize];
+                let le = em.radiance(lambda, cos_l);
+                if le != Vec4::ZERO && d > 0.0 {
+                    let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi, lambda);
+                    if f_cos != Vec4::ZERO {
+                        let p_light = ls.pdf_area * d2 / cos_l.abs();
+                        let eps = spawn_eps(p);
+                        let org = p + ng * eps * ng.dot(wi).signum();
+                        let shadow = Ray {
+                            org,
+                            dir: wi,
+                            tnear: 0.0,
+                            tfar: d * (1.0 - 1e-4) - eps,
+                        };
+                        stats.rays += 1;
+                        if !scene.accel.occluded1(&shadow) {
+                            let denom = (ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();
+                            l += beta * f_cos * le / denom;
+                        }
+                    }
+                }
+            }
+        }
+
+        // Continue the path with the hero's BSDF sample.
+        let uc = rng.next_f32();
+        let u2 = rng.next_2d();
+        let Some(bs) = material.sample(ng, wo, lambda, uc, u2) else { break };
+        let p0 = bs.pdf.x;
+        if p0 <= 0.0 {
+            break;
+        }
+        let ratio_prev = ratio;
+        beta *= bs.f_cos / p0;
+        ratio *= bs.pdf / p0;
+        prev_bsdf = if bs.specular { None } else { Some((bs.pdf, ratio_prev, p)) };
+        if beta == Vec4::ZERO {
+            break;
+        }
+
+        // Russian roulette on the weighted throughput, after a few bounces.
+        if depth >= 3 {
+            let q = beta.max_element().min(0.95);
+            if rng.next_f32() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        let eps = spawn_eps(p);
+        ray = Ray::new(p + ng * eps * ng.dot(bs.wi).signum(), bs.wi);
+    }
+    l
+}

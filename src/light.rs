@@ -1,0 +1,192 @@
+//! Area lights: emissive triangles, sampled in proportion to their power.
+//!
+//! Each emissive shape becomes an [`Emitter`] (spectral radiance × scale, one- or
+//! two-sided); its triangles enter one table, chosen with probability ∝ area × scale ×
+//! mean radiance and then sampled uniformly by area.
+
+use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
+use glam::{Vec3, Vec4};
+
+/// The emission of one shape.
+#[derive(Debug, Clone)]
+pub struct Emitter {
+    /// Spectral radiance.
+    pub radiance: Spectrum,
+    /// Multiplier on the radiance.
+    pub scale: f32,
+    /// Emits from the back side too.
+    pub two_sided: bool,
+}
+
+impl Emitter {
+    /// Radiance leaving towards a direction whose cosine with the front normal is `cos`.
+    #[inline]
+    pub fn radiance(&self, lambda: Vec4, cos: f32) -> Vec4 {
+        if cos > 0.0 || (self.two_sided && cos < 0.0) {
+            self.radiance.eval4(lambda) * self.scale
+        } else {
+            Vec4::ZERO
+        }
+    }
+
+    /// Mean radiance over the renderer's wavelength range (for power-based selection).
+    fn mean_radiance(&self) -> f32 {
+        let n = 470;
+        let sum: f32 = (0..n)
+            .map(|i| {
+                let l = LAMBDA_MIN + (i as f32 + 0.5) * (LAMBDA_MAX - LAMBDA_MIN) / n as f32;
+                self.radiance.eval(l)
+            })
+            .sum();
+        self.scale * sum / n as f32
+    }
+}
+
+/// One emissive triangle.
+#[derive(Debug, Clone, Copy)]
+pub struct LightTriangle {
+    /// First vertex.
+    pub p0: Vec3,
+    /// Edge p1 − p0.
+    pub e1: Vec3,
+    /// Edge p2 − p0.
+    pub e2: Vec3,
+    /// Unit front normal (e1 × e2).
+    pub n: Vec3,
+    /// Area.
+    pub area: f32,
+    /// Index into [`Lights::emitters`].
+    pub emitter: u32,
+}
+
+/// A point sampled on a light.
+#[derive(Debug, Clone, Copy)]
+pub struct LightSample {
+    /// The point.
+    pub p: Vec3,
+    /// Unit front normal there.
+    pub n: Vec3,
+    /// Which emitter.
+    pub emitter: u32,
+    /// Probability density per unit area (including the choice of triangle).
+    pub pdf_area: f32,
+}
+
+/// All area lights of a scene.
+#[derive(Debug, Clone, Default)]
+pub struct Lights {
+    /// Emitters, one per emissive shape.
+    pub emitters: Vec<Emitter>,
+    /// Emissive triangles.
+    pub triangles: Vec<LightTriangle>,
+    /// Cumulative selection probabilities of `triangles`.
+    cdf: Vec<f32>,
+    /// Selection probability of each triangle.
+    pmf: Vec<f32>,
+    /// For each geometry id, the index of its first light triangle.
+    first_triangle: Vec<Option<u32>>,
+}
+
+impl Lights {
+    /// Adds an emitter with its triangles; `geom_id` is the Embree id of the mesh.
+    pub fn add(&mut self, geom_id: u32, emitter: Emitter, positions: &[[f32; 3]], indices: &[[u32; 3]]) {
+        let e = self.emitters.len() as u32;
+        self.emitters.push(emitter);
+        let g = geom_id as usize;
+        if self.first_triangle.len() <= g {
+            self.first_triangle.resize(g + 1, None);
+        }
+        self.first_triangle[g] = Some(self.triangles.len() as u32);
+        for t in indices {
+            let [p0, p1, p2] = t.map(|i| Vec3::from(positions[i as usize]));
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let c = e1.cross(e2);
+            let area = 0.5 * c.length();
+            self.triangles.push(LightTriangle {
+                p0,
+                e1,
+                e2,
+                n: c.normalize_or_zero(),
+                area,
+                emitter: e,
+            });
+        }
+    }
+
+    /// Builds the selection table; call once after the last [`Lights::add`].
+    pub fn finish(&mut self) {
+        let weights: Vec<f32> = self
+            .triangles
+            .iter()
+            .map(|t| t.area * self.emitters[t.emitter as usize].mean_radiance().max(0.0))
+            .collect();
+        let total: f32 = weights.iter().sum();
+        self.pmf = if total > 0.0 {
+            weights.iter().map(|w| w / total).collect()
+        } else {
+            vec![1.0 / weights.len().max(1) as f32; weights.len()]
+        };
+        let mut acc = 0.0;
+        self.cdf = self
+            .pmf
+            .iter()
+            .map(|p| {
+                acc += p;
+                acc
+            })
+            .collect();
+        if let Some(last) = self.cdf.last_mut() {
+            *last = 1.0;
+        }
+    }
+
+    /// Whether the scene has any light.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Samples a point on a light from three uniforms.
+    #[inline]
+    pub fn sample(&self, u: [f32; 3]) -> Option<LightSample> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let i = self.cdf.partition_point(|&c| c <= u[0]).min(self.triangles.len() - 1);
+        let t = &self.triangles[i];
+        if self.pmf[i] <= 0.0 || t.area <= 0.0 {
+            return None;
+        }
+        // Uniform on the triangle (square-root parametrisation).
+        let su = u[1].sqrt();
+        let (b1, b2) = (1.0 - su, u[2] * su);
+        Some(LightSample {
+            p: t.p0 + t.e1 * b1 + t.e2 * b2,
+            n: t.n,
+            emitter: t.emitter,
+            pdf_area: self.pmf[i] / t.area,
+        })
+    }
+
+    /// The area density with which [`Lights::sample`] picks a point on triangle `prim` of
+    /// geometry `geom`.
+    #[inline]
+    pub fn pdf_area(&self, geom: u32, prim: u32) -> f32 {
+        match self.first_triangle.get(geom as usize).copied().flatten() {
+            Some(first) => {
+                let i = (first + prim) as usize;
+                self.pmf[i] / self.triangles[i].area
+            }
+            None => 0.0,
+        }
+    }
+
+    /// The emitter of geometry `geom`, if it emits.
+    #[inline]
+    pub fn emitter_of(&self, geom: u32) -> Option<&Emitter> {
+        self.first_triangle
+            .get(geom as usize)
+            .copied()
+            .flatten()
+            .map(|first| &self.emitters[self.triangles[first as usize].emitter as usize])
+    }
+}

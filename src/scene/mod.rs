@@ -1,0 +1,588 @@
+//! Scene loading: the TOML description ([`desc`]) turned into what the renderer traces —
+//! an Embree scene, materials, lights and a camera.
+//!
+//! Every error names the scene file and the key (or the file and line, for TOML syntax
+//! and for OBJ/CSV files) and says what was expected.
+
+pub mod desc;
+pub mod obj;
+pub mod shapes;
+
+use crate::accel;
+use crate::bsdf::{Ior, Material};
+use crate::camera::Camera;
+use crate::light::{Emitter, Lights};
+use crate::spectrum::{self, Spectrum, Tabulated};
+use desc::{IorDesc, SceneDesc, SpectrumDesc};
+use glam::Vec3;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+pub use desc::RenderDesc;
+
+/// What the renderer knows of one Embree geometry.
+#[derive(Debug, Clone)]
+pub struct Geometry {
+    /// A readable name: `shapes[i]` plus the OBJ object name.
+    pub name: String,
+    /// Index into [`Scene::materials`], or `None` for a black, non-scattering surface.
+    pub material: Option<u32>,
+    /// Number of triangles.
+    pub triangles: usize,
+}
+
+/// A loaded scene.
+pub struct Scene {
+    /// The scene file.
+    pub path: PathBuf,
+    /// Embree's view of the geometry.
+    pub accel: accel::Scene,
+    /// The camera.
+    pub camera: Camera,
+    /// Render defaults from the file.
+    pub render: RenderDesc,
+    /// Materials, by index.
+    pub materials: Vec<Material>,
+    /// Material names, by index.
+    pub material_names: Vec<String>,
+    /// Per Embree geometry id.
+    pub geometries: Vec<Geometry>,
+    /// Area lights.
+    pub lights: Lights,
+    /// Axis-aligned bounds of all geometry.
+    pub bounds: (Vec3, Vec3),
+}
+
+impl Scene {
+    /// Loads a scene file. The error is one message naming the file and the key or line.
+    pub fn load(path: &Path) -> Result<Scene, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
+        Scene::from_str(&text, path)
+    }
+
+    /// Parses scene text; `path` names it in errors and anchors relative file names.
+    pub fn from_str(text: &str, path: &Path) -> Result<Scene, String> {
+        let desc: SceneDesc = toml::from_str(text).map_err(|e| {
+            // toml's message carries the line, column and key; keep it on one line.
+            let msg = e.to_string();
+            let lines: Vec<&str> = msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            format!("{}: {}", path.display(), lines.join(" "))
+        })?;
+        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Builder {
+            file: path,
+            base,
+            desc: &desc,
+            spectra: BTreeMap::new(),
+        }
+        .build()
+        .map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Renders at another resolution (same vertical field of view).
+    pub fn set_resolution(&mut self, width: u32, height: u32) {
+        self.camera = self.camera.with_resolution(width, height);
+    }
+
+    /// Total triangle count.
+    pub fn triangle_count(&self) -> usize {
+        self.accel.triangle_count()
+    }
+
+    /// Whether any material refracts with a wavelength-dependent index.
+    pub fn has_dispersion(&self) -> bool {
+        self.materials
+            .iter()
+            .any(|m| matches!(m, Material::Dielectric { ior, .. } if ior.is_dispersive()))
+    }
+
+    /// A name for reports: the file stem.
+    pub fn name(&self) -> String {
+        self.path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+}
+
+struct Builder<'a> {
+    file: &'a Path,
+    base: PathBuf,
+    desc: &'a SceneDesc,
+    spectra: BTreeMap<String, Spectrum>,
+}
+
+fn check_vec(key: &str, v: [f32; 3]) -> Result<Vec3, String> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(Vec3::from(v))
+    } else {
+        Err(format!("{key}: expected finite numbers, found {v:?}"))
+    }
+}
+
+/// What range a spectrum's values must lie in.
+#[derive(Clone, Copy)]
+enum Range {
+    /// Reflectances: [0, 1].
+    Unit,
+    /// Radiances: ≥ 0.
+    NonNegative,
+}
+
+impl Builder<'_> {
+    fn build(mut self) -> Result<Scene, String> {
+        let d = self.desc;
+        // Named spectra first: materials and emitters refer to them.
+        for (name, s) in &d.spectra {
+            let key = format!("spectra.{name}");
+            let spec = self.spectrum(&key, s, None)?;
+            self.spectra.insert(name.clone(), spec);
+        }
+
+        let c = &d.camera;
+        let camera = Camera::new(
+            check_vec("camera.position", c.position)?,
+            check_vec("camera.look_at", c.look_at)?,
+            check_vec("camera.up", c.up)?,
+            c.fov,
+            c.resolution[0],
+            c.resolution[1],
+        )?;
+        if d.render.spp == 0 {
+            return Err("render.spp: expected at least 1 sample per pixel, found 0".into());
+        }
+        if d.render.max_depth < -1 || d.render.max_depth == 0 {
+            return Err(format!(
+                "render.max_depth: expected −1 (unbounded) or a depth ≥ 1, found {}",
+                d.render.max_depth
+            ));
+        }
+
+        let mut materials = Vec::new();
+        let mut material_names = Vec::new();
+        let mut material_index = BTreeMap::new();
+        for (name, m) in &d.materials {
+            let key = format!("materials.{name}");
+            material_index.insert(name.clone(), materials.len() as u32);
+            materials.push(self.material(&key, m)?);
+            material_names.push(name.clone());
+        }
+
+        let device = accel::Device::new().map_err(|e| e.to_string())?;
+        let mut builder = device.scene_builder().map_err(|e| e.to_string())?;
+        let mut geometries = Vec::new();
+        let mut lights = Lights::default();
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+
+        for (i, s) in d.shapes.iter().enumerate() {
+            let key = format!("shapes[{i}]");
+            let material = match &s.material {
+                Some(m) => Some(*material_index.get(m).ok_or_else(|| {
+                    format!(
+                        "{key}.material: no material named {m:?} (defined: {})",
+                        list(material_index.keys())
+                    )
+                })?),
+                None if s.emission.is_some() => None,
+                None => return Err(format!("{key}: missing key `material`")),
+            };
+            let emitter = match &s.emission {
+                Some(e) => {
+                    let scale = e.scale.unwrap_or(1.0);
+                    if !(scale.is_finite() && scale >= 0.0) {
+                        return Err(format!(
+                            "{key}.emission.scale: expected a non-negative number, found {scale}"
+                        ));
+                    }
+                    Some(Emitter {
+                        radiance: self.spectrum(
+                            &format!("{key}.emission.radiance"),
+                            &e.radiance,
+                            Some(Range::NonNegative),
+                        )?,
+                        scale,
+                        two_sided: e.two_sided,
+                    })
+                }
+                None => None,
+            };
+            for (name, mut mesh) in self.meshes(&key, s)? {
+                let scale = s.scale.unwrap_or(1.0);
+                if !(scale.is_finite() && scale > 0.0) {
+                    return Err(format!("{key}.scale: expected a positive number, found {scale}"));
+                }
+                let t = check_vec(&format!("{key}.translate"), s.translate.unwrap_or([0.0; 3]))?;
+                mesh.transform(scale, t);
+                if s.flip {
+                    mesh.flip();
+                }
+                let (a, b) = mesh.bounds();
+                lo = lo.min(a);
+                hi = hi.max(b);
+                let id = builder
+                    .attach_triangles(&mesh.positions, &mesh.indices)
+                    .map_err(|e| format!("{key}: {e}"))?;
+                if let Some(em) = &emitter {
+                    lights.add(id, em.clone(), &mesh.positions, &mesh.indices);
+                }
+                geometries.push(Geometry {
+                    name: if name.is_empty() { key.clone() } else { format!("{key} ({name})") },
+                    material,
+                    triangles: mesh.indices.len(),
+                });
+            }
+        }
+        if geometries.is_empty() {
+            return Err("shapes: the scene has no shapes".into());
+        }
+        lights.finish();
+        let accel = builder.commit().map_err(|e| e.to_string())?;
+        Ok(Scene {
+            path: self.file.to_path_buf(),
+            accel,
+            camera,
+            render: d.render.clone(),
+            materials,
+            material_names,
+            geometries,
+            lights,
+            bounds: (lo, hi),
+        })
+    }
+
+    fn resolve(&self, file: &str) -> PathBuf {
+        self.base.join(file)
+    }
+
+    fn meshes(&self, key: &str, s: &desc::ShapeDesc) -> Result<Vec<(String, shapes::TriMesh)>, String> {
+        let need3 = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3, String> {
+            let v = v.ok_or_else(|| format!("{key}: missing key `{k}` for a {} shape", s.kind))?;
+            check_vec(&format!("{key}.{k}"), v)
+        };
+        let unused = |keys: &[(&str, bool)]| -> Result<(), String> {
+            for (k, present) in keys {
+                if *present {
+                    return Err(format!("{key}.{k}: not a key of a {} shape", s.kind));
+                }
+            }
+            Ok(())
+        };
+        let obj_keys = [("file", s.file.is_some()), ("object", s.object.is_some())];
+        let quad_keys = [
+            ("origin", s.origin.is_some()),
+            ("edge_u", s.edge_u.is_some()),
+            ("edge_v", s.edge_v.is_some()),
+        ];
+        let box_keys = [("min", s.min.is_some()), ("max", s.max.is_some())];
+        let sphere_keys = [
+            ("center", s.center.is_some()),
+            ("radius", s.radius.is_some()),
+            ("stacks", s.stacks.is_some()),
+            ("slices", s.slices.is_some()),
+        ];
+        match s.kind.as_str() {
+            "obj" => {
+                unused(&quad_keys)?;
+                unused(&box_keys)?;
+                unused(&sphere_keys)?;
+                let file = s
+                    .file
+                    .as_ref()
+                    .ok_or_else(|| format!("{key}: missing key `file` for an obj shape"))?;
+                let objs = obj::load_obj(&self.resolve(file)).map_err(|e| format!("{key}.file: {e}"))?;
+                let names: Vec<String> = objs.iter().map(|o| o.name.clone()).collect();
+                let picked: Vec<_> = objs
+                    .into_iter()
+                    .filter(|o| s.object.as_ref().is_none_or(|n| &o.name == n))
+                    .map(|o| {
+                        (
+                            o.name,
+                            shapes::TriMesh {
+                                positions: o.positions,
+                                indices: o.indices,
+                            },
+                        )
+                    })
+                    .collect();
+                if picked.is_empty() {
+                    return Err(format!(
+                        "{key}.object: {file} has no object named {:?} (objects: {})",
+                        s.object.as_deref().unwrap_or(""),
+                        list(names.iter())
+                    ));
+                }
+                Ok(picked)
+            }
+            "quad" => {
+                unused(&obj_keys)?;
+                unused(&box_keys)?;
+                unused(&sphere_keys)?;
+                let (o, u, v) = (
+                    need3("origin", s.origin)?,
+                    need3("edge_u", s.edge_u)?,
+                    need3("edge_v", s.edge_v)?,
+                );
+                if u.cross(v).length_squared() == 0.0 {
+                    return Err(format!("{key}: edge_u and edge_v must not be parallel or zero"));
+                }
+                Ok(vec![(String::new(), shapes::quad(o, u, v))])
+            }
+            "box" => {
+                unused(&obj_keys)?;
+                unused(&quad_keys)?;
+                unused(&sphere_keys)?;
+                let (a, b) = (need3("min", s.min)?, need3("max", s.max)?);
+                if !(a.cmplt(b).all()) {
+                    return Err(format!("{key}: expected min < max on every axis, found min {a} max {b}"));
+                }
+                Ok(vec![(String::new(), shapes::cuboid(a, b))])
+            }
+            "sphere" => {
+                unused(&obj_keys)?;
+                unused(&quad_keys)?;
+                unused(&box_keys)?;
+                let c = need3("center", s.center)?;
+                let r = s
+                    .radius
+                    .ok_or_else(|| format!("{key}: missing key `radius` for a sphere shape"))?;
+                if !(r.is_finite() && r > 0.0) {
+                    return Err(format!("{key}.radius: expected a positive number, found {r}"));
+                }
+                let stacks = s.stacks.unwrap_or(64);
+                let slices = s.slices.unwrap_or(2 * stacks);
+                if !(2..=4096).contains(&stacks) || !(3..=8192).contains(&slices) {
+                    return Err(format!(
+                        "{key}: expected stacks in 2..=4096 and slices in 3..=8192, found {stacks} and {slices}"
+                    ));
+                }
+                Ok(vec![(String::new(), shapes::uv_sphere(c, r, stacks, slices))])
+            }
+            other => Err(format!(
+                "{key}.type: expected one of \"obj\", \"quad\", \"box\", \"sphere\", found {other:?}"
+            )),
+        }
+    }
+
+    fn material(&self, key: &str, m: &desc::MaterialDesc) -> Result<Material, String> {
+        let no = |k: &str, present: bool| -> Result<(), String> {
+            if present {
+                Err(format!("{key}.{k}: not a key of a {} material", m.kind))
+            } else {
+                Ok(())
+            }
+        };
+        match m.kind.as_str() {
+            "diffuse" => {
+                no("ior", m.ior.is_some())?;
+                no("ext_ior", m.ext_ior.is_some())?;
+                let r = m
+                    .reflectance
+                    .as_ref()
+                    .ok_or_else(|| format!("{key}: missing key `reflectance` for a diffuse material"))?;
+                Ok(Material::Diffuse {
+                    reflectance: self.spectrum(&format!("{key}.reflectance"), r, Some(Range::Unit))?,
+                })
+            }
+            "mirror" => {
+                no("ior", m.ior.is_some())?;
+                no("ext_ior", m.ext_ior.is_some())?;
+                let reflectance = match &m.reflectance {
+                    Some(r) => self.spectrum(&format!("{key}.reflectance"), r, Some(Range::Unit))?,
+                    None => Spectrum::Constant(1.0),
+                };
+                Ok(Material::Mirror { reflectance })
+            }
+            "dielectric" => {
+                no("reflectance", m.reflectance.is_some())?;
+                let ior = m
+                    .ior
+                    .as_ref()
+                    .ok_or_else(|| format!("{key}: missing key `ior` for a dielectric material"))?;
+                let ior = ior_from(&format!("{key}.ior"), ior)?;
+                let ext_ior = m.ext_ior.unwrap_or(1.0);
+                if !(ext_ior.is_finite() && ext_ior >= 1.0) {
+                    return Err(format!("{key}.ext_ior: expected a number ≥ 1, found {ext_ior}"));
+                }
+                Ok(Material::Dielectric { ior, ext_ior })
+            }
+            other => Err(format!(
+                "{key}.type: expected one of \"diffuse\", \"mirror\", \"dielectric\", found {other:?}"
+            )),
+        }
+    }
+
+    /// Turns a spectrum description into a spectrum, checking its values against `range`.
+    fn spectrum(&self, key: &str, s: &SpectrumDesc, range: Option<Range>) -> Result<Spectrum, String> {
+        let spec = match s {
+            SpectrumDesc::Constant(v) => Spectrum::Constant(*v as f32),
+            SpectrumDesc::Name(n) => {
+                if let Some(sp) = self.spectra.get(n) {
+                    sp.clone()
+                } else if let Some(sp) = spectrum::illuminant(n) {
+                    sp
+                } else {
+                    return Err(format!(
+                        "{key}: no spectrum named {n:?} (named spectra: {}; illuminants: D65, A, F2, F11)",
+                        list(self.spectra.keys())
+                    ));
+                }
+            }
+            SpectrumDesc::Table(t) => self.spectrum_table(key, t)?,
+        };
+        check_range(key, &spec, range)?;
+        Ok(spec)
+    }
+
+    fn spectrum_table(&self, key: &str, t: &desc::SpectrumTable) -> Result<Spectrum, String> {
+        let kinds = [
+            ("constant", t.constant.is_some()),
+            ("blackbody", t.blackbody.is_some()),
+            ("illuminant", t.illuminant.is_some()),
+            ("csv", t.csv.is_some()),
+            ("wavelengths", t.wavelengths.is_some()),
+            ("narrow_band", t.narrow_band.is_some()),
+        ];
+        let given: Vec<&str> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
+        if given.len() != 1 {
+            return Err(format!(
+                "{key}: expected exactly one of constant, blackbody, illuminant, csv, wavelengths, narrow_band; found {}",
+                if given.is_empty() { "none".to_string() } else { given.join(", ") }
+            ));
+        }
+        let stray = |k: &str, present: bool, with: &str| -> Result<(), String> {
+            if present && given[0] != with {
+                Err(format!("{key}.{k}: only allowed together with `{with}`"))
+            } else {
+                Ok(())
+            }
+        };
+        stray("normalise", t.normalise.is_some(), "blackbody")?;
+        stray("column", t.column.is_some(), "csv")?;
+        stray("values", t.values.is_some(), "wavelengths")?;
+        stray("fwhm", t.fwhm.is_some(), "narrow_band")?;
+        let spec = match given[0] {
+            "constant" => Spectrum::Constant(t.constant.unwrap_or(0.0)),
+            "blackbody" => {
+                let k = t.blackbody.unwrap_or(0.0);
+                if !(k.is_finite() && k > 0.0) {
+                    return Err(format!("{key}.blackbody: expected a temperature in kelvin > 0, found {k}"));
+                }
+                Spectrum::Blackbody {
+                    kelvin: k,
+                    normalise: t.normalise.unwrap_or(true),
+                }
+            }
+            "illuminant" => {
+                let n = t.illuminant.as_deref().unwrap_or("");
+                spectrum::illuminant(n).ok_or_else(|| {
+                    format!("{key}.illuminant: expected one of D65, A, F2, F11, found {n:?}")
+                })?
+            }
+            "csv" => {
+                let file = t.csv.as_deref().unwrap_or("");
+                let tab = spectrum::csv_column(&self.resolve(file), t.column.as_deref())
+                    .map_err(|e| format!("{key}.csv: {e}"))?;
+                Spectrum::Tabulated(tab)
+            }
+            "wavelengths" => {
+                let w = t.wavelengths.clone().unwrap_or_default();
+                let v = t
+                    .values
+                    .clone()
+                    .ok_or_else(|| format!("{key}: missing key `values` next to `wavelengths`"))?;
+                Spectrum::Tabulated(Tabulated::new(w, v).map_err(|e| format!("{key}: {e}"))?)
+            }
+            "narrow_band" => {
+                let c = t.narrow_band.unwrap_or(0.0);
+                let w = t
+                    .fwhm
+                    .ok_or_else(|| format!("{key}: missing key `fwhm` next to `narrow_band`"))?;
+                if !(c.is_finite() && c > 0.0 && w.is_finite() && w > 0.0) {
+                    return Err(format!(
+                        "{key}: expected a positive centre and full width at half maximum (nm), found {c} and {w}"
+                    ));
+                }
+                Spectrum::NarrowBand { centre: c, fwhm: w }
+            }
+            _ => unreachable!(),
+        };
+        Ok(match t.scale {
+            Some(s) if !(s.is_finite() && s >= 0.0) => {
+                return Err(format!("{key}.scale: expected a non-negative number, found {s}"))
+            }
+            Some(s) if s != 1.0 => Spectrum::Scaled(Box::new(spec), s),
+            _ => spec,
+        })
+    }
+}
+
+fn check_range(key: &str, spec: &Spectrum, range: Option<Range>) -> Result<(), String> {
+    let Some(range) = range else { return Ok(()) };
+    // Check on a 1 nm grid over the rendered range (tabulated data is checked where it
+    // matters: the wavelengths the renderer can sample).
+    let mut lo = f32::INFINITY;
+    let mut hi = f32::NEG_INFINITY;
+    let mut at = (0.0, 0.0);
+    for i in 0..=470 {
+        let l = spectrum::LAMBDA_MIN + i as f32;
+        let v = spec.eval(l);
+        if !v.is_finite() {
+            return Err(format!("{key}: expected finite values, found {v} at {l} nm"));
+        }
+        if v < lo {
+            lo = v;
+            at.0 = l;
+        }
+        if v > hi {
+            hi = v;
+            at.1 = l;
+        }
+    }
+    if lo < 0.0 {
+        let what = match range {
+            Range::Unit => "a reflectance in [0, 1]",
+            Range::NonNegative => "a non-negative radiance",
+        };
+        return Err(format!("{key}: expected {what}, found {lo} at {} nm", at.0));
+    }
+    if matches!(range, Range::Unit) && hi > 1.0 + 1e-6 {
+        return Err(format!(
+            "{key}: expected a reflectance in [0, 1], found {hi} at {} nm (energy would be created)",
+            at.1
+        ));
+    }
+    Ok(())
+}
+
+fn ior_from(key: &str, d: &IorDesc) -> Result<Ior, String> {
+    let ior = match d {
+        IorDesc::Constant(n) => Ior::Constant(*n as f32),
+        IorDesc::Table(t) => match (&t.cauchy, &t.sellmeier) {
+            (Some([a, b]), None) => Ior::Cauchy { a: *a, b: *b },
+            (None, Some(s)) => Ior::Sellmeier { b: s.b, c: s.c },
+            _ => {
+                return Err(format!(
+                    "{key}: expected exactly one of `cauchy = [A, B]` or `sellmeier = {{ b = [..], c = [..] }}`"
+                ))
+            }
+        },
+    };
+    for l in [spectrum::LAMBDA_MIN, 550.0, spectrum::LAMBDA_MAX] {
+        let n = ior.eval(l);
+        if !(n.is_finite() && n >= 1.0) {
+            return Err(format!("{key}: expected an index ≥ 1 over 360–830 nm, found {n} at {l} nm"));
+        }
+    }
+    Ok(ior)
+}
+
+fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
+    let v: Vec<&str> = names.map(|s| s.as_str()).collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}

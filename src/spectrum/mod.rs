@@ -1,0 +1,304 @@
+//! Spectra: wavelength sampling, spectral curves, and the CIE observer and illuminants.
+//!
+//! The renderer works over λ ∈ [[`LAMBDA_MIN`], [`LAMBDA_MAX`]) = [360, 830) nm, the
+//! support of the CIE 1931 colour-matching functions. A path carries four wavelengths
+//! ([`SampledWavelengths`], hero wavelength sampling); every spectrum is evaluated at those
+//! four with [`Spectrum::eval4`].
+//!
+//! The kinds of [`Spectrum`] and their units (a scene's `scale` multiplies any of them):
+//! - `Constant(c)`: the same value at every wavelength (reflectance, or radiance in
+//!   W·sr⁻¹·m⁻²·nm⁻¹).
+//! - `Tabulated`: measured samples, linear between them and zero outside (Mitsuba 3 and
+//!   pbrt-v4 behave the same), e.g. from a CSV file ([`read_csv`], [`csv_column`]) or a CIE
+//!   illuminant ([`illuminant`]: "D65", "A", "F2", "F11", relative power).
+//! - `Blackbody { kelvin, normalise }`: Planck's law in W·sr⁻¹·m⁻²·nm⁻¹, or divided by its
+//!   peak (so its maximum over all wavelengths is 1) when `normalise`.
+//! - `NarrowBand { centre, fwhm }`: a Gaussian line (LED, laser) whose integral over
+//!   wavelength is 1 nm·nm⁻¹, so `scale` is the line's total radiance in W·sr⁻¹·m⁻².
+//! - `Scaled(s, k)`: `k` times `s`.
+//!
+//! Colour: [`spectrum_to_xyz`] gives the exact XYZ of a radiance spectrum (Y = 1 for a
+//! constant 1), [`xyz_estimate`] the film's Monte Carlo estimate of it from four lanes.
+
+mod blackbody;
+mod cie;
+mod curve;
+mod wavelengths;
+
+use glam::Vec4;
+
+pub use blackbody::{peak_value as blackbody_peak_value, peak_wavelength, planck};
+pub use cie::{
+    cie_xyz, cie_xyz4, illuminant, reflectance_to_xyz, spectrum_to_xyz, xyz_estimate,
+    CIE_Y_INTEGRAL, ILLUMINANT_NAMES,
+};
+pub use curve::{csv_column, parse_csv, read_csv, Tabulated};
+pub use wavelengths::SampledWavelengths;
+
+/// Shortest wavelength the renderer samples (nm).
+pub const LAMBDA_MIN: f32 = 360.0;
+/// Longest wavelength the renderer samples (nm), exclusive.
+pub const LAMBDA_MAX: f32 = 830.0;
+/// `LAMBDA_MAX − LAMBDA_MIN`, the Δ of hero wavelength sampling.
+pub const LAMBDA_RANGE: f32 = LAMBDA_MAX - LAMBDA_MIN;
+
+/// FWHM = 2√(2 ln 2) σ for a Gaussian.
+const FWHM_PER_SIGMA: f32 = 2.354_820_0;
+
+/// A function of wavelength (nm): reflectance, radiance, or any coefficient.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Spectrum {
+    /// The same value at every wavelength.
+    Constant(f32),
+    /// Linear between samples, zero outside the first and last wavelength.
+    Tabulated(Tabulated),
+    /// Planck's law at `kelvin` in W·sr⁻¹·m⁻²·nm⁻¹; divided by its peak value (its
+    /// maximum over all wavelengths becomes 1) when `normalise`. `kelvin` must be > 0
+    /// (use [`Spectrum::blackbody`] to check).
+    Blackbody { kelvin: f32, normalise: bool },
+    /// A Gaussian line with full width at half maximum `fwhm` (nm), normalised so that
+    /// ∫ s(λ) dλ = 1 over all λ: scaled by k it carries total radiance k W·sr⁻¹·m⁻².
+    /// (A line whose tails reach past 360 or 830 nm loses the part outside.) `fwhm` must be
+    /// > 0 (use [`Spectrum::narrow_band`] to check).
+    NarrowBand { centre: f32, fwhm: f32 },
+    /// `factor` times the inner spectrum.
+    Scaled(Box<Spectrum>, f32),
+}
+
+impl Spectrum {
+    /// A black body, checking that the temperature is positive and finite.
+    pub fn blackbody(kelvin: f32, normalise: bool) -> Result<Spectrum, String> {
+        if !(kelvin.is_finite() && kelvin > 0.0) {
+            return Err(format!(
+                "blackbody temperature must be a positive number of kelvin, found {kelvin}"
+            ));
+        }
+        Ok(Spectrum::Blackbody { kelvin, normalise })
+    }
+
+    /// A narrow band, checking that the centre is finite and the width positive.
+    pub fn narrow_band(centre: f32, fwhm: f32) -> Result<Spectrum, String> {
+        if !centre.is_finite() {
+            return Err(format!("narrow band centre must be finite, found {centre}"));
+        }
+        if !(fwhm.is_finite() && fwhm > 0.0) {
+            return Err(format!(
+                "narrow band fwhm must be a positive number of nm, found {fwhm}"
+            ));
+        }
+        Ok(Spectrum::NarrowBand { centre, fwhm })
+    }
+
+    /// `factor` times `self`, folding constants and nested scales.
+    pub fn scaled(self, factor: f32) -> Spectrum {
+        match self {
+            _ if factor == 1.0 => self,
+            Spectrum::Constant(c) => Spectrum::Constant(c * factor),
+            Spectrum::Scaled(inner, k) => Spectrum::Scaled(inner, k * factor),
+            other => Spectrum::Scaled(Box::new(other), factor),
+        }
+    }
+
+    /// The value at `lambda` nm.
+    pub fn eval(&self, lambda: f32) -> f32 {
+        match self {
+            Spectrum::Constant(c) => *c,
+            Spectrum::Tabulated(t) => t.eval(lambda),
+            Spectrum::Blackbody { kelvin, normalise } => {
+                let b = planck(lambda, *kelvin);
+                if *normalise {
+                    b / blackbody_peak_value(*kelvin)
+                } else {
+                    b
+                }
+            }
+            Spectrum::NarrowBand { centre, fwhm } => gaussian(lambda, *centre, *fwhm),
+            Spectrum::Scaled(inner, k) => k * inner.eval(lambda),
+        }
+    }
+
+    /// The values at four wavelengths (one per lane).
+    pub fn eval4(&self, lambda: Vec4) -> Vec4 {
+        match self {
+            Spectrum::Constant(c) => Vec4::splat(*c),
+            Spectrum::Tabulated(t) => Vec4::from_array(lambda.to_array().map(|l| t.eval(l))),
+            Spectrum::Blackbody { kelvin, normalise } => {
+                let norm = if *normalise {
+                    1.0 / blackbody_peak_value(*kelvin)
+                } else {
+                    1.0
+                };
+                Vec4::from_array(lambda.to_array().map(|l| planck(l, *kelvin) * norm))
+            }
+            Spectrum::NarrowBand { centre, fwhm } => {
+                Vec4::from_array(lambda.to_array().map(|l| gaussian(l, *centre, *fwhm)))
+            }
+            Spectrum::Scaled(inner, k) => *k * inner.eval4(lambda),
+        }
+    }
+
+    /// An upper bound of the value over [`LAMBDA_MIN`, `LAMBDA_MAX`], e.g. for majorants
+    /// and light selection. It is the maximum itself except under a negative scale, where
+    /// it is the largest |value| times |scale|.
+    pub fn max_value(&self) -> f32 {
+        match self {
+            Spectrum::Constant(c) => *c,
+            Spectrum::Tabulated(t) => t.max_over(LAMBDA_MIN, LAMBDA_MAX),
+            Spectrum::Blackbody { kelvin, .. } => {
+                // Planck's law is unimodal in λ: the peak if it is in range, else an end.
+                let peak = peak_wavelength(*kelvin);
+                let at = peak.clamp(LAMBDA_MIN, LAMBDA_MAX);
+                self.eval(at)
+            }
+            Spectrum::NarrowBand { centre, .. } => {
+                self.eval(centre.clamp(LAMBDA_MIN, LAMBDA_MAX))
+            }
+            Spectrum::Scaled(inner, k) if *k >= 0.0 => k * inner.max_value(),
+            Spectrum::Scaled(inner, k) => -k * inner.max_abs_value(),
+        }
+    }
+
+    /// An upper bound of |value| over the range (lets [`Self::max_value`] bound a negative
+    /// scale of a spectrum that has negative values).
+    fn max_abs_value(&self) -> f32 {
+        match self {
+            Spectrum::Constant(c) => c.abs(),
+            Spectrum::Tabulated(t) => t.max_abs_over(LAMBDA_MIN, LAMBDA_MAX),
+            Spectrum::Scaled(inner, k) => k.abs() * inner.max_abs_value(),
+            Spectrum::Blackbody { .. } | Spectrum::NarrowBand { .. } => self.max_value(),
+        }
+    }
+
+    /// `Some(c)` when the spectrum is the same `c` at every wavelength, so callers can skip
+    /// per-lane work.
+    pub fn is_constant(&self) -> Option<f32> {
+        match self {
+            Spectrum::Constant(c) => Some(*c),
+            Spectrum::Scaled(inner, k) => inner.is_constant().map(|c| c * k),
+            _ => None,
+        }
+    }
+}
+
+/// A unit-area Gaussian in λ with the given centre and FWHM.
+fn gaussian(lambda: f32, centre: f32, fwhm: f32) -> f32 {
+    let sigma = fwhm / FWHM_PER_SIGMA;
+    let z = (lambda - centre) / sigma;
+    (-0.5 * z * z).exp() / (sigma * (2.0 * std::f32::consts::PI).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn assert_send_sync<T: Send + Sync + Clone + std::fmt::Debug>() {}
+
+    #[test]
+    fn spectrum_is_send_sync() {
+        assert_send_sync::<Spectrum>();
+        assert_send_sync::<SampledWavelengths>();
+    }
+
+    #[test]
+    fn fwhm_constant_is_right() {
+        let exact = 2.0 * (2.0 * 2.0f64.ln()).sqrt();
+        assert!((f64::from(FWHM_PER_SIGMA) - exact).abs() < 1e-6);
+        // Half the peak at centre ± fwhm/2.
+        let s = Spectrum::narrow_band(550.0, 20.0).unwrap();
+        assert!((s.eval(560.0) / s.eval(550.0) - 0.5).abs() < 1e-5);
+        assert!((s.eval(540.0) / s.eval(550.0) - 0.5).abs() < 1e-5);
+    }
+
+    #[test]
+    fn eval4_matches_eval_for_every_kind() {
+        let t = Tabulated::new(vec![400.0, 500.0, 700.0], vec![0.2, 0.9, 0.4]).unwrap();
+        let kinds = [
+            Spectrum::Constant(0.7),
+            Spectrum::Tabulated(t.clone()),
+            Spectrum::Blackbody {
+                kelvin: 3000.0,
+                normalise: true,
+            },
+            Spectrum::Blackbody {
+                kelvin: 6500.0,
+                normalise: false,
+            },
+            Spectrum::NarrowBand {
+                centre: 532.0,
+                fwhm: 5.0,
+            },
+            Spectrum::Tabulated(t).scaled(2.5),
+        ];
+        let l = Vec4::new(380.0, 455.5, 533.0, 829.0);
+        for s in &kinds {
+            let four = s.eval4(l).to_array();
+            for k in 0..4 {
+                let one = s.eval(l[k]);
+                assert!(
+                    (four[k] - one).abs() <= 1e-6 * one.abs().max(1.0),
+                    "{s:?} at {}: {} vs {one}",
+                    l[k],
+                    four[k]
+                );
+            }
+        }
+    }
+
+    /// Scans 360–830 nm in 0.1 nm steps: nothing may exceed `max_value`, and when `tight`
+    /// the scan must reach it.
+    fn check_bound(s: &Spectrum, tight: bool) {
+        let m = s.max_value();
+        let mut best = f32::MIN;
+        for i in 0..=4700 {
+            let l = LAMBDA_MIN + i as f32 * 0.1;
+            let v = s.eval(l);
+            assert!(v <= m * (1.0 + 1e-5), "{s:?}: {v} at {l} exceeds bound {m}");
+            best = best.max(v);
+        }
+        if tight {
+            assert!(best >= m * (1.0 - 1e-3), "{s:?}: bound {m} is loose ({best})");
+        }
+    }
+
+    #[test]
+    fn max_value_bounds_every_kind() {
+        let t = Tabulated::new(vec![300.0, 500.0, 900.0], vec![5.0, 1.0, 7.0]).unwrap();
+        let kinds = [
+            Spectrum::Constant(0.3),
+            Spectrum::Tabulated(t.clone()),
+            Spectrum::Tabulated(t.clone()).scaled(2.0),
+            Spectrum::blackbody(2000.0, false).unwrap(), // peak at 1449 nm: out of range
+            Spectrum::blackbody(5000.0, true).unwrap(),
+            Spectrum::blackbody(20000.0, false).unwrap(), // peak at 145 nm: out of range
+            Spectrum::narrow_band(600.0, 10.0).unwrap(),
+            Spectrum::narrow_band(300.0, 100.0).unwrap(),
+        ];
+        for s in &kinds {
+            check_bound(s, true);
+        }
+        check_bound(&Spectrum::Tabulated(t).scaled(-2.0), false);
+    }
+
+    #[test]
+    fn normalised_blackbody_peaks_at_one() {
+        let s = Spectrum::blackbody(5000.0, true).unwrap();
+        assert!((s.eval(peak_wavelength(5000.0)) - 1.0).abs() < 1e-6);
+        assert!((s.max_value() - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn constants_are_recognised() {
+        assert_eq!(Spectrum::Constant(2.0).scaled(3.0).is_constant(), Some(6.0));
+        let s = Spectrum::Scaled(Box::new(Spectrum::Constant(2.0)), 0.5);
+        assert_eq!(s.is_constant(), Some(1.0));
+        assert_eq!(Spectrum::narrow_band(500.0, 1.0).unwrap().is_constant(), None);
+    }
+
+    #[test]
+    fn constructors_reject_bad_parameters() {
+        assert!(Spectrum::blackbody(0.0, true).is_err());
+        assert!(Spectrum::blackbody(f32::NAN, true).is_err());
+        assert!(Spectrum::narrow_band(500.0, 0.0).is_err());
+        assert!(Spectrum::narrow_band(f32::INFINITY, 1.0).is_err());
+    }
+}
