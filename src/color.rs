@@ -105,16 +105,8 @@ pub fn xyz_to_lab(xyz: Vec3, white_xyz: Vec3) -> Vec3 {
 /// CIEDE2000 colour difference ΔE₀₀ between two L*a*b* colours (k_L = k_C = k_H = 1),
 /// following Sharma, Wu and Dalal (2005), computed in f64.
 pub fn delta_e_2000(lab1: Vec3, lab2: Vec3) -> f32 {
-    let (l1, a1, b1) = (
-        f64::from(lab1.x),
-        f64::from(lab1.y),
-        f64::from(lab1.z),
-    );
-    let (l2, a2, b2) = (
-        f64::from(lab2.x),
-        f64::from(lab2.y),
-        f64::from(lab2.z),
-    );
+    let (l1, a1, b1) = (f64::from(lab1.x), f64::from(lab1.y), f64::from(lab1.z));
+    let (l2, a2, b2) = (f64::from(lab2.x), f64::from(lab2.y), f64::from(lab2.z));
     let pow7 = |x: f64| x.powi(7);
     let twenty_five_7 = pow7(25.0);
 
@@ -133,8 +125,9 @@ pub fn delta_e_2000(lab1: Vec3, lab2: Vec3) -> f32 {
     let h1p = hue(a1p, b1);
     let mut h2p = hue(a2p, b2);
     let chroma_product = c1p * c2p;
-    // Exactly opposite hues (e.g. Sharma's pairs 10 and 14) must be exactly 180° apart, or
-    // the branch below flips on the last bit of atan2. The cross product decides exactly.
+    // Exactly opposite hues (Sharma's pairs 10 and 14) sit on the boundary of the mean-hue
+    // rule below, where the last bit of atan2 could pick the branch. The cross product
+    // tells opposition exactly, so make the angles exactly 180° apart.
     if chroma_product != 0.0 && a1p * b2 - b1 * a2p == 0.0 && a1p * a2p + b1 * b2 < 0.0 {
         h2p = if h1p >= 180.0 {
             h1p - 180.0
@@ -219,7 +212,10 @@ mod tests {
         }
         let id = ours * inv;
         assert!(
-            (id - Mat3::IDENTITY).to_cols_array().iter().all(|v| v.abs() < 1e-6),
+            (id - Mat3::IDENTITY)
+                .to_cols_array()
+                .iter()
+                .all(|v| v.abs() < 1e-6),
             "{id:?}"
         );
     }

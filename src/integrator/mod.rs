@@ -55,6 +55,23 @@ fn spawn_eps(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
+/// A shadow ray between two surface points, both pushed off their surfaces towards each
+/// other. The ray runs between the *offset* points: measuring the length from the
+/// unshifted point instead makes the ray reach the light's own surface at grazing angles.
+#[inline]
+pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, nq: Vec3, wi: Vec3) -> Ray {
+    let org = p + n * (spawn_eps(p) * n.dot(wi).signum());
+    let target = q - nq * (spawn_eps(q) * nq.dot(wi).signum());
+    let to = target - org;
+    let len = to.length();
+    Ray {
+        org,
+        dir: to / len,
+        tnear: 0.0,
+        tfar: len * (1.0 - 1e-5),
+    }
+}
+
 /// Radiance along a camera ray at the wavelengths `lambda`, already weighted by the
 /// balance heuristic over lanes: summing `xyz(λ_k)·L_k / pdf(λ)` over the lanes gives an
 /// unbiased XYZ estimate.
@@ -125,14 +142,7 @@ pub fn radiance(
                     let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi, lambda);
                     if f_cos != Vec4::ZERO {
                         let p_light = ls.pdf_area * d2 / cos_l.abs();
-                        let eps = spawn_eps(p);
-                        let org = p + ng * eps * ng.dot(wi).signum();
-                        let shadow = Ray {
-                            org,
-                            dir: wi,
-                            tnear: 0.0,
-                            tfar: d * (1.0 - 1e-4) - eps,
-                        };
+                        let shadow = shadow_ray(p, ng, ls.p, ls.n, wi);
                         stats.rays += 1;
                         if !scene.accel.occluded1(&shadow) {
                             let denom = (ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();

@@ -286,8 +286,7 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>, S
     if wavelengths.is_empty() {
         return Err(format!("{source}: no data rows"));
     }
-    let names =
-        names.unwrap_or_else(|| (1..=columns.len()).map(|i| i.to_string()).collect());
+    let names = names.unwrap_or_else(|| (1..=columns.len()).map(|i| i.to_string()).collect());
     names
         .into_iter()
         .zip(columns)
@@ -360,7 +359,10 @@ mod tests {
     #[test]
     fn rejects_bad_tables() {
         let e = Tabulated::new(vec![400.0, 500.0, 450.0], vec![0.0; 3]).unwrap_err();
-        assert!(e.contains("index 2") && e.contains("450") && e.contains("500"), "{e}");
+        assert!(
+            e.contains("index 2") && e.contains("450") && e.contains("500"),
+            "{e}"
+        );
         let e = Tabulated::new(vec![400.0, 400.0], vec![0.0; 2]).unwrap_err();
         assert!(e.contains("duplicates"), "{e}");
         let e = Tabulated::new(vec![400.0], vec![0.0; 2]).unwrap_err();
@@ -412,17 +414,26 @@ mod tests {
         let e = parse_csv("# only a comment\n", "h.csv").unwrap_err();
         assert_eq!(e, "h.csv: no data rows");
         let e = parse_csv("400,nan\n", "i.csv").unwrap_err();
-        assert!(e.starts_with("i.csv:1: expected a finite number in column 2"), "{e}");
+        assert!(
+            e.starts_with("i.csv:1: expected a finite number in column 2"),
+            "{e}"
+        );
     }
 
     #[test]
     fn picks_columns_by_name() {
         let cols = || parse_csv("nm,a,b\n400,1,2\n", "p.csv").unwrap();
-        assert_eq!(pick_column(cols(), Some("b"), "p.csv").unwrap().values(), &[2.0]);
+        assert_eq!(
+            pick_column(cols(), Some("b"), "p.csv").unwrap().values(),
+            &[2.0]
+        );
         let e = pick_column(cols(), None, "p.csv").unwrap_err();
         assert!(e.contains("'a', 'b'"), "{e}");
         let e = pick_column(cols(), Some("c"), "p.csv").unwrap_err();
-        assert!(e.contains("no column named 'c'") && e.contains("'a', 'b'"), "{e}");
+        assert!(
+            e.contains("no column named 'c'") && e.contains("'a', 'b'"),
+            "{e}"
+        );
         let one = parse_csv("400,7\n", "q.csv").unwrap();
         assert_eq!(pick_column(one, None, "q.csv").unwrap().values(), &[7.0]);
     }

@@ -13,8 +13,8 @@
 //!   illuminant ([`illuminant`]: "D65", "A", "F2", "F11", relative power).
 //! - `Blackbody { kelvin, normalise }`: Planck's law in W·sr⁻¹·m⁻²·nm⁻¹, or divided by its
 //!   peak (so its maximum over all wavelengths is 1) when `normalise`.
-//! - `NarrowBand { centre, fwhm }`: a Gaussian line (LED, laser) whose integral over
-//!   wavelength is 1 nm·nm⁻¹, so `scale` is the line's total radiance in W·sr⁻¹·m⁻².
+//! - `NarrowBand { centre, fwhm }`: a Gaussian line (LED, laser) in nm⁻¹, normalised so
+//!   that ∫ s(λ) dλ = 1 (λ in nm); `scale` is then the line's total radiance in W·sr⁻¹·m⁻².
 //! - `Scaled(s, k)`: `k` times `s`.
 //!
 //! Colour: [`spectrum_to_xyz`] gives the exact XYZ of a radiance spectrum (Y = 1 for a
@@ -43,7 +43,7 @@ pub const LAMBDA_MAX: f32 = 830.0;
 pub const LAMBDA_RANGE: f32 = LAMBDA_MAX - LAMBDA_MIN;
 
 /// FWHM = 2√(2 ln 2) σ for a Gaussian.
-const FWHM_PER_SIGMA: f32 = 2.354_820_0;
+const FWHM_PER_SIGMA: f32 = 2.354_82;
 
 /// A function of wavelength (nm): reflectance, radiance, or any coefficient.
 #[derive(Clone, Debug, PartialEq)]
@@ -150,9 +150,7 @@ impl Spectrum {
                 let at = peak.clamp(LAMBDA_MIN, LAMBDA_MAX);
                 self.eval(at)
             }
-            Spectrum::NarrowBand { centre, .. } => {
-                self.eval(centre.clamp(LAMBDA_MIN, LAMBDA_MAX))
-            }
+            Spectrum::NarrowBand { centre, .. } => self.eval(centre.clamp(LAMBDA_MIN, LAMBDA_MAX)),
             Spectrum::Scaled(inner, k) if *k >= 0.0 => k * inner.max_value(),
             Spectrum::Scaled(inner, k) => -k * inner.max_abs_value(),
         }
@@ -256,7 +254,10 @@ mod tests {
             best = best.max(v);
         }
         if tight {
-            assert!(best >= m * (1.0 - 1e-3), "{s:?}: bound {m} is loose ({best})");
+            assert!(
+                best >= m * (1.0 - 1e-3),
+                "{s:?}: bound {m} is loose ({best})"
+            );
         }
     }
 
@@ -291,7 +292,10 @@ mod tests {
         assert_eq!(Spectrum::Constant(2.0).scaled(3.0).is_constant(), Some(6.0));
         let s = Spectrum::Scaled(Box::new(Spectrum::Constant(2.0)), 0.5);
         assert_eq!(s.is_constant(), Some(1.0));
-        assert_eq!(Spectrum::narrow_band(500.0, 1.0).unwrap().is_constant(), None);
+        assert_eq!(
+            Spectrum::narrow_band(500.0, 1.0).unwrap().is_constant(),
+            None
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@
 
 use glam::Vec4;
 
-use super::{LAMBDA_MAX, LAMBDA_MIN, LAMBDA_RANGE};
+use super::{LAMBDA_MIN, LAMBDA_RANGE};
 
 /// Largest `f32` strictly below [`LAMBDA_MAX`]: keeps sampled wavelengths in the half-open
 /// range even when `MIN + u·Δ` rounds up to `MAX`.
@@ -70,10 +70,10 @@ fn to_lambda(u: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spectrum::LAMBDA_MAX;
 
     #[test]
     fn below_max_is_the_previous_float() {
-        assert!(LAMBDA_BELOW_MAX < LAMBDA_MAX);
         assert_eq!(
             f32::from_bits(LAMBDA_MAX.to_bits() - 1),
             LAMBDA_BELOW_MAX,
