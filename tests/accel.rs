@@ -152,13 +152,13 @@ fn test_scene() -> Scene {
     scene
 }
 
-/// Random rays: origins in `[-2, 2]³` (inside and outside the sphere), uniform directions of
+/// Random rays: origins in `[-1.8, 1.8]³` (inside and outside the sphere), uniform directions of
 /// random length, and a mix of full and clipped `[tnear, tfar]` segments.
 fn random_rays(seed: u64, n: usize) -> Vec<Ray> {
     let mut rng = Pcg32::new(seed, 2);
     (0..n)
         .map(|_| {
-            let org = rng.in_box(Vec3::splat(-2.0), Vec3::splat(2.0));
+            let org = rng.in_box(Vec3::splat(-1.8), Vec3::splat(1.8));
             let dir = rng.direction() * rng.range(0.5, 2.0);
             let tnear = if rng.f32() < 0.5 { 0.0 } else { rng.range(0.0, 0.5) };
             let tfar = if rng.f32() < 0.5 {
@@ -222,23 +222,28 @@ fn garbage_ray(k: usize) -> Ray {
     }
 }
 
-/// A packet whose lanes all hold something recognisable: lanes `prefill[k]` hold a real hit
-/// from a ray starting inside the sphere (so every hit field has a known value), the others
-/// a NaN garbage ray with no hit.
+/// A packet whose lanes all hold something recognisable, one of three kinds per lane:
+/// - a real hit of a ray starting inside the sphere (every hit field has a known value);
+/// - a ray from inside the sphere that has not been traced: it would hit if it were, so a
+///   query that touches the lane changes its `tfar` and its hit;
+/// - a NaN garbage ray with an empty segment.
 fn sentinel_packet(scene: &Scene, rng: &mut Pcg32) -> RayHit4 {
     let mut p = RayHit4::new();
-    let prefill = rng.mask();
+    let kind: [u32; 4] = std::array::from_fn(|_| rng.next_u32() % 3);
+    let mut inside = |rng: &mut Pcg32| Ray::new(rng.in_box(Vec3::splat(-0.5), Vec3::splat(0.5)), rng.direction());
     for k in 0..4 {
-        if prefill[k] {
-            let org = rng.in_box(Vec3::splat(-0.5), Vec3::splat(0.5));
-            p.set_ray(k, &Ray::new(org, rng.direction()));
-        } else {
-            p.set_ray(k, &garbage_ray(k));
-        }
+        let r = if kind[k] == 2 { garbage_ray(k) } else { inside(rng) };
+        p.set_ray(k, &r);
     }
+    let prefill = kind.map(|c| c != 2);
     scene.intersect4(&mut p, prefill, Coherence::Incoherent);
     for k in 0..4 {
         assert_eq!(p.hit(k).is_some(), prefill[k], "a ray from inside the closed sphere hits");
+        if kind[k] == 1 {
+            let r = inside(rng);
+            assert!(scene.occluded1(&r));
+            p.set_ray(k, &r);
+        }
     }
     p
 }
@@ -483,7 +488,7 @@ fn intersect4_incoherent_is_bitwise_intersect1() {
         hit_bits(s) == hit_bits(p)
     });
     eprintln!("incoherent: {lanes} active lanes, {hits} hits, {other} other primitives");
-    assert!(lanes > N_RAYS / 2 - 500 && hits > lanes / 3 && hits < lanes, "{lanes} lanes, {hits} hits");
+    assert!(lanes > N_RAYS / 2 - 500 && hits > lanes / 4 && hits < lanes * 3 / 4, "{lanes} lanes, {hits} hits");
     assert_eq!(other, 0);
     // And on coherent camera quads (still with the incoherent flag).
     let quads = camera_quads(64, 64);
@@ -519,7 +524,7 @@ fn intersect4_coherent_matches_intersect1_up_to_edges() {
     let rays = random_rays(2, N_RAYS);
     let (lanes, hits, other) = check_intersect4(&scene, &quads_of(&rays), Coherence::Coherent, 20, same_up_to_edges);
     eprintln!("coherent, random rays: {lanes} active lanes, {hits} hits, {other} other primitives");
-    assert!(hits > lanes / 3);
+    assert!(hits > lanes / 4, "{lanes} lanes, {hits} hits");
     let quads = camera_quads(128, 128);
     let (lanes, hits, other) = check_intersect4(&scene, &quads, Coherence::Coherent, 21, same_up_to_edges);
     eprintln!("coherent, camera quads: {lanes} active lanes, {hits} hits, {other} other primitives");
@@ -635,13 +640,14 @@ fn invalid_vertex_format_is_embrees_error() {
     assert_eq!(e.code, RTC_ERROR_INVALID_OPERATION, "{e}");
     assert!(e.message.contains("invalid vertex buffer format"), "{e}");
     assert!(e.to_string().contains("RTC_ERROR_INVALID_OPERATION"), "{e}");
-    // The error does not stick: the builder still works and the failed mesh is not there.
-    assert_eq!(b.attach_triangles(&v, &[[0, 1, 2]]), Ok(1));
+    // The error does not stick: the builder still works and the failed mesh is not there
+    // (it took no geometry id).
+    assert_eq!(b.attach_triangles(&v, &[[0, 1, 2]]), Ok(0));
     let scene = b.commit().expect("commit after a failed attach");
     assert_eq!(scene.triangle_count(), 1);
     assert_eq!(scene.geometry_count(), 1);
     let h = scene.intersect1(&Ray::new(Vec3::new(0.25, 0.25, -1.0), Vec3::Z)).unwrap();
-    assert_eq!((h.geom_id, h.prim_id), (1, 0));
+    assert_eq!((h.geom_id, h.prim_id), (0, 0));
 }
 
 #[test]

@@ -64,10 +64,18 @@ impl Scene {
     /// Parses scene text; `path` names it in errors and anchors relative file names.
     pub fn from_str(text: &str, path: &Path) -> Result<Scene, String> {
         let desc: SceneDesc = toml::from_str(text).map_err(|e| {
-            // toml's message carries the line, column and key; keep it on one line.
-            let msg = e.to_string();
-            let lines: Vec<&str> = msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
-            format!("{}: {}", path.display(), lines.join(" "))
+            // One line: file:line:column: what was expected.
+            let msg = e.message().trim().replace('\n', " ");
+            match e.span() {
+                Some(span) => {
+                    let before = &text[..span.start.min(text.len())];
+                    let line = before.matches('\n').count() + 1;
+                    let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                    let src = text.lines().nth(line - 1).unwrap_or("").trim();
+                    format!("{}:{line}:{col}: {msg} (in `{src}`)", path.display())
+                }
+                None => format!("{}: {msg}", path.display()),
+            }
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         Builder {
