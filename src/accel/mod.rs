@@ -9,6 +9,10 @@
 //!
 //! Both Embree 3 (`RTCIntersectContext`) and Embree 4 (`RTCIntersectArguments`) are
 //! supported; `build.rs` sets the cfg `embree3` or `embree4` from what `embree-sys` found.
+//!
+//! Rays Embree cannot trace (see [`Ray::is_traceable`]: NaN or huge origins and
+//! directions, a negative or NaN `tnear`, a NaN `tfar`) never reach Embree: they are
+//! misses. Debian's Embree 3.13.5 is built with assertions and aborts the process on them.
 #![allow(unsafe_code)]
 
 use embree_sys as sys;
@@ -322,6 +326,27 @@ impl Ray {
             tfar: f32::INFINITY,
         }
     }
+
+    /// Whether Embree accepts the ray: every component of `org` and `dir` within
+    /// ±1.844·10¹⁸ (Embree's `FLT_LARGE`; so not NaN or infinite), `tnear ≥ 0`, `tfar` not
+    /// NaN. The queries report any other ray as a miss (not occluded) without calling
+    /// Embree, whose ray-validity assertions abort the process in Debian's build.
+    #[inline]
+    pub fn is_traceable(&self) -> bool {
+        traceable(self.org.to_array(), self.dir.to_array(), self.tnear, self.tfar)
+    }
+}
+
+/// Embree's `FLT_LARGE` (common/math/constants.h): `RayK::valid()` wants every origin and
+/// direction component within ±this.
+const FLT_LARGE: f32 = 1.844e18;
+
+/// Embree's `RayK::valid()` plus its `tnear >= 0` assertion, for one ray.
+#[inline]
+fn traceable(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
+    // `abs(x) <= FLT_LARGE` is false for NaN and ±∞; `&` keeps it branch-free.
+    let ok = |x: f32| x.abs() <= FLT_LARGE;
+    ok(org[0]) & ok(org[1]) & ok(org[2]) & ok(dir[0]) & ok(dir[1]) & ok(dir[2]) & (tnear >= 0.0) & !tfar.is_nan()
 }
 
 /// The closest hit along a ray.
@@ -422,6 +447,21 @@ impl RayHit4 {
     pub fn occluded(&self, k: usize) -> bool {
         self.0.ray.tfar[k] == f32::NEG_INFINITY
     }
+
+    /// `active` with the lanes whose rays Embree cannot trace switched off.
+    #[inline]
+    fn traceable(&self, active: [bool; 4]) -> [bool; 4] {
+        let r = &self.0.ray;
+        std::array::from_fn(|k| {
+            active[k]
+                & traceable(
+                    [r.org_x[k], r.org_y[k], r.org_z[k]],
+                    [r.dir_x[k], r.dir_y[k], r.dir_z[k]],
+                    r.tnear[k],
+                    r.tfar[k],
+                )
+        })
+    }
 }
 
 /// The `valid` argument of the packet queries: −1 marks an active lane. Must be 16-byte
@@ -520,9 +560,13 @@ impl Scene {
         self.geometries
     }
 
-    /// The closest hit along `ray`, if any.
+    /// The closest hit along `ray`, if any (`None` for a ray that is not
+    /// [traceable](Ray::is_traceable)).
     #[inline]
     pub fn intersect1(&self, ray: &Ray) -> Option<Hit> {
+        if !ray.is_traceable() {
+            return None;
+        }
         let mut rh = sys::RTCRayHit {
             ray: to_rtc_ray(ray),
             hit: sys::RTCHit {
@@ -555,9 +599,13 @@ impl Scene {
         })
     }
 
-    /// Whether anything blocks `ray` within `[tnear, tfar]`.
+    /// Whether anything blocks `ray` within `[tnear, tfar]` (`false` for a ray that is not
+    /// [traceable](Ray::is_traceable)).
     #[inline]
     pub fn occluded1(&self, ray: &Ray) -> bool {
+        if !ray.is_traceable() {
+            return false;
+        }
         let mut r = to_rtc_ray(ray);
         #[cfg(embree3)]
         {
@@ -574,10 +622,11 @@ impl Scene {
         r.tfar == f32::NEG_INFINITY
     }
 
-    /// Closest hits for the active lanes of a packet; inactive lanes are left untouched.
+    /// Closest hits for the active lanes of a packet; inactive lanes, and lanes whose ray
+    /// is not [traceable](Ray::is_traceable), are left untouched.
     #[inline]
     pub fn intersect4(&self, packet: &mut RayHit4, active: [bool; 4], coherence: Coherence) {
-        let valid = Valid4::from_mask(active);
+        let valid = Valid4::from_mask(packet.traceable(active));
         #[cfg(embree3)]
         {
             let mut ctx = query::Ctx::new(coherence);
@@ -594,10 +643,11 @@ impl Scene {
     }
 
     /// Occlusion for the active lanes of a packet (read with [`RayHit4::occluded`]);
-    /// inactive lanes are left untouched.
+    /// inactive lanes, and lanes whose ray is not [traceable](Ray::is_traceable), are left
+    /// untouched.
     #[inline]
     pub fn occluded4(&self, packet: &mut RayHit4, active: [bool; 4], coherence: Coherence) {
-        let valid = Valid4::from_mask(active);
+        let valid = Valid4::from_mask(packet.traceable(active));
         #[cfg(embree3)]
         {
             let mut ctx = query::Ctx::new(coherence);

@@ -2,6 +2,8 @@
 //! the command-line binary.
 #![allow(dead_code)]
 
+pub mod oiio;
+
 use std::path::{Path, PathBuf};
 use stokes::integrator::render::{render, Film, RenderOptions};
 use stokes::integrator::Spectral;
