@@ -25,7 +25,11 @@ fn uv_sphere(stacks: u32, slices: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
         let theta = std::f64::consts::PI * i as f64 / stacks as f64;
         for j in 0..slices {
             let phi = 2.0 * std::f64::consts::PI * j as f64 / slices as f64;
-            let p = DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let p = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             v.push(p.as_vec3().to_array());
         }
     }
@@ -39,7 +43,12 @@ fn uv_sphere(stacks: u32, slices: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     }
     for i in 1..stacks - 1 {
         for j in 0..slices {
-            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1));
+            let (a, b, c, d) = (
+                ring(i, j),
+                ring(i, j + 1),
+                ring(i + 1, j),
+                ring(i + 1, j + 1),
+            );
             t.push([a, b, d]);
             t.push([a, d, c]);
         }
@@ -58,14 +67,19 @@ fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
             let sy = (1.0 - 2.0 * (y as f32 + 0.5) / h as f32) * tan_half;
             let sz = 1.0f32;
             let inv = 1.0 / (sx * sx + sy * sy + sz * sz).sqrt();
-            rays.push(Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::new(sx * inv, sy * inv, sz * inv)));
+            rays.push(Ray::new(
+                Vec3::new(0.0, 0.0, -3.0),
+                Vec3::new(sx * inv, sy * inv, sz * inv),
+            ));
         }
     }
     rays
 }
 
 fn single_pass(scene: &Scene, rays: &[Ray]) -> u64 {
-    rays.iter().map(|r| scene.intersect1(black_box(r)).is_some() as u64).sum()
+    rays.iter()
+        .map(|r| scene.intersect1(black_box(r)).is_some() as u64)
+        .sum()
 }
 
 fn packet_pass(scene: &Scene, rays: &[Ray], w: u32, h: u32) -> u64 {
@@ -96,10 +110,14 @@ fn median(mut xs: Vec<f64>) -> f64 {
 fn main() -> Result<(), String> {
     let args: Vec<u32> = std::env::args()
         .skip(1)
-        .map(|a| a.parse().map_err(|_| format!("expected a number, found {a:?}")))
+        .map(|a| {
+            a.parse()
+                .map_err(|_| format!("expected a number, found {a:?}"))
+        })
         .collect::<Result<_, _>>()?;
     let arg = |i: usize, default: u32| args.get(i).copied().unwrap_or(default);
-    let (stacks, slices, size, runs, passes) = (arg(0, 160), arg(1, 318), arg(2, 1024), arg(3, 5), arg(4, 3));
+    let (stacks, slices, size, runs, passes) =
+        (arg(0, 160), arg(1, 318), arg(2, 1024), arg(3, 5), arg(4, 3));
     if stacks < 2 || slices < 3 || size < 1 || runs < 1 || passes < 1 {
         return Err("usage: embree_wrapper_bench [stacks>=2 slices>=3 size runs passes]".into());
     }
@@ -108,7 +126,9 @@ fn main() -> Result<(), String> {
     let device = Device::new().map_err(|e| e.to_string())?;
     let mut builder = device.scene_builder().map_err(|e| e.to_string())?;
     let (v, t) = uv_sphere(stacks, slices);
-    builder.attach_triangles(&v, &t).map_err(|e| e.to_string())?;
+    builder
+        .attach_triangles(&v, &t)
+        .map_err(|e| e.to_string())?;
     let scene = builder.commit().map_err(|e| e.to_string())?;
     let (w, h) = (size, size);
     let rays = camera_rays(w, h);

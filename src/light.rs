@@ -29,6 +29,18 @@ impl Emitter {
         }
     }
 
+    /// Whether it emits towards a direction whose cosine with the front normal is `cos`.
+    #[inline]
+    pub fn emits_towards(&self, cos: f32) -> bool {
+        cos > 0.0 || (self.two_sided && cos < 0.0)
+    }
+
+    /// The spectral radiance (× scale) at four wavelengths, ignoring direction.
+    #[inline]
+    pub fn spectral_radiance(&self, lambda: Vec4) -> Vec4 {
+        self.radiance.eval4(lambda) * self.scale
+    }
+
     /// Mean radiance over the renderer's wavelength range (for power-based selection).
     fn mean_radiance(&self) -> f32 {
         let n = 470;
@@ -178,6 +190,16 @@ impl Lights {
             }
             None => 0.0,
         }
+    }
+
+    /// The index (into [`Lights::emitters`]) of geometry `geom`'s emitter, if it emits.
+    #[inline]
+    pub fn emitter_index_of(&self, geom: u32) -> Option<u32> {
+        self.first_triangle
+            .get(geom as usize)
+            .copied()
+            .flatten()
+            .map(|first| self.triangles[first as usize].emitter)
     }
 
     /// The emitter of geometry `geom`, if it emits.

@@ -13,8 +13,8 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use stokes::accel::{
-    set_flush_denormals, thread_pool, Coherence, Device, EmbreeError, Hit, Ray, RayHit4, Scene, SceneBuilder,
-    VertexFormat,
+    set_flush_denormals, thread_pool, Coherence, Device, EmbreeError, Hit, Ray, RayHit4, Scene,
+    SceneBuilder, VertexFormat,
 };
 
 // Embree's `RTCError` codes (rtcore_device.h). Named here rather than imported from
@@ -67,7 +67,11 @@ impl Pcg32 {
     }
 
     fn in_box(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
-        Vec3::new(self.range(lo.x, hi.x), self.range(lo.y, hi.y), self.range(lo.z, hi.z))
+        Vec3::new(
+            self.range(lo.x, hi.x),
+            self.range(lo.y, hi.y),
+            self.range(lo.z, hi.z),
+        )
     }
 
     /// Uniform on the unit sphere.
@@ -98,7 +102,11 @@ fn uv_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
         let theta = std::f64::consts::PI * i as f64 / stacks as f64;
         for j in 0..slices {
             let phi = std::f64::consts::TAU * j as f64 / slices as f64;
-            let p = DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let p = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             let p = centre + (p * radius as f64).as_vec3();
             v.push(p.to_array());
         }
@@ -113,7 +121,12 @@ fn uv_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
     }
     for i in 1..stacks - 1 {
         for j in 0..slices {
-            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1));
+            let (a, b, c, d) = (
+                ring(i, j),
+                ring(i, j + 1),
+                ring(i + 1, j),
+                ring(i + 1, j + 1),
+            );
             t.push([a, b, d]);
             t.push([a, d, c]);
         }
@@ -160,13 +173,22 @@ fn random_rays(seed: u64, n: usize) -> Vec<Ray> {
         .map(|_| {
             let org = rng.in_box(Vec3::splat(-1.8), Vec3::splat(1.8));
             let dir = rng.direction() * rng.range(0.5, 2.0);
-            let tnear = if rng.f32() < 0.5 { 0.0 } else { rng.range(0.0, 0.5) };
+            let tnear = if rng.f32() < 0.5 {
+                0.0
+            } else {
+                rng.range(0.0, 0.5)
+            };
             let tfar = if rng.f32() < 0.5 {
                 f32::INFINITY
             } else {
                 rng.range(tnear, 3.0)
             };
-            Ray { org, dir, tnear, tfar }
+            Ray {
+                org,
+                dir,
+                tnear,
+                tfar,
+            }
         })
         .collect()
 }
@@ -177,7 +199,10 @@ fn camera_quads(w: u32, h: u32) -> Vec<[Ray; 4]> {
     let ray = |x: u32, y: u32| {
         let sx = (2.0 * (x as f32 + 0.5) / w as f32 - 1.0) * tan;
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / h as f32) * tan;
-        Ray::new(Vec3::new(0.0, 0.0, -4.0), Vec3::new(sx, sy, 1.0).normalize())
+        Ray::new(
+            Vec3::new(0.0, 0.0, -4.0),
+            Vec3::new(sx, sy, 1.0).normalize(),
+        )
     };
     let mut quads = vec![];
     for y in (0..h).step_by(2) {
@@ -230,15 +255,24 @@ fn garbage_ray(k: usize) -> Ray {
 fn sentinel_packet(scene: &Scene, rng: &mut Pcg32) -> RayHit4 {
     let mut p = RayHit4::new();
     let kind: [u32; 4] = std::array::from_fn(|_| rng.next_u32() % 3);
-    let mut inside = |rng: &mut Pcg32| Ray::new(rng.in_box(Vec3::splat(-0.5), Vec3::splat(0.5)), rng.direction());
-    for k in 0..4 {
-        let r = if kind[k] == 2 { garbage_ray(k) } else { inside(rng) };
+    let inside = |rng: &mut Pcg32| {
+        Ray::new(
+            rng.in_box(Vec3::splat(-0.5), Vec3::splat(0.5)),
+            rng.direction(),
+        )
+    };
+    for (k, &c) in kind.iter().enumerate() {
+        let r = if c == 2 { garbage_ray(k) } else { inside(rng) };
         p.set_ray(k, &r);
     }
     let prefill = kind.map(|c| c != 2);
     scene.intersect4(&mut p, prefill, Coherence::Incoherent);
     for k in 0..4 {
-        assert_eq!(p.hit(k).is_some(), prefill[k], "a ray from inside the closed sphere hits");
+        assert_eq!(
+            p.hit(k).is_some(),
+            prefill[k],
+            "a ray from inside the closed sphere hits"
+        );
         if kind[k] == 1 {
             let r = inside(rng);
             assert!(scene.occluded1(&r));
@@ -285,8 +319,16 @@ fn single_triangle_hit_is_exact() {
     let h = scene.intersect1(&ray).expect("the ray hits the triangle");
     assert_eq!(h.t, 5.0);
     assert_eq!((h.geom_id, h.prim_id), (0, 0));
-    assert_eq!((h.u, h.v), (0.25, 0.25), "u weighs v1 = (2,0,2), v weighs v2 = (0,4,2)");
-    assert_eq!(h.ng, Vec3::new(0.0, 0.0, 8.0), "Ng = (v1 − v0) × (v2 − v0), unnormalised");
+    assert_eq!(
+        (h.u, h.v),
+        (0.25, 0.25),
+        "u weighs v1 = (2,0,2), v weighs v2 = (0,4,2)"
+    );
+    assert_eq!(
+        h.ng,
+        Vec3::new(0.0, 0.0, 8.0),
+        "Ng = (v1 − v0) × (v2 − v0), unnormalised"
+    );
     assert!(scene.occluded1(&ray));
 
     // From the other side: same Ng (Embree does not turn it towards the ray).
@@ -338,11 +380,16 @@ fn single_triangle_normal_convention_general_position() {
         assert_close(h.u, bu as f32, 2e-3, "u");
         assert_close(h.v, bv as f32, 2e-3, "v");
         for i in 0..3 {
-            assert!((h.ng[i] as f64 - ng[i]).abs() <= 1e-5 * ng.length(), "Ng {:?} vs {ng:?}", h.ng);
+            assert!(
+                (h.ng[i] as f64 - ng[i]).abs() <= 1e-5 * ng.length(),
+                "Ng {:?} vs {ng:?}",
+                h.ng
+            );
         }
         // The hit point rebuilt from (t, u, v) agrees.
         let q = ray.org + h.t * ray.dir;
-        let r = (1.0 - h.u - h.v) * Vec3::from(v[0]) + h.u * Vec3::from(v[1]) + h.v * Vec3::from(v[2]);
+        let r =
+            (1.0 - h.u - h.v) * Vec3::from(v[0]) + h.u * Vec3::from(v[1]) + h.v * Vec3::from(v[2]);
         assert!((q - r).length() < 1e-4, "{q} vs {r}");
         // Swapping v1 and v2 swaps u and v and negates Ng.
         let hf = flipped.intersect1(&ray).expect("hit");
@@ -375,7 +422,12 @@ fn single_triangle_misses_and_segment_clipping() {
         assert!(!scene.occluded1(&r), "{r:?}");
     }
     // The segment ends before the triangle, or starts after it.
-    for r in [at(0.0, 4.99), at(0.0, 4.0), at(5.01, 100.0), at(5.01, f32::INFINITY)] {
+    for r in [
+        at(0.0, 4.99),
+        at(0.0, 4.0),
+        at(5.01, 100.0),
+        at(5.01, f32::INFINITY),
+    ] {
         assert_eq!(scene.intersect1(&r), None, "{r:?}");
         assert!(!scene.occluded1(&r), "{r:?}");
     }
@@ -383,29 +435,141 @@ fn single_triangle_misses_and_segment_clipping() {
         assert_eq!(scene.intersect1(&r).map(|h| h.t), Some(5.0), "{r:?}");
         assert!(scene.occluded1(&r), "{r:?}");
     }
-    // Embree's boundaries: t must satisfy tnear < t <= tfar (both 5 here, exactly).
-    assert_eq!(scene.intersect1(&at(0.0, 5.0)).map(|h| h.t), Some(5.0));
-    assert!(scene.occluded1(&at(0.0, 5.0)));
-    assert_eq!(scene.intersect1(&at(5.0, 6.0)), None);
-    assert!(!scene.occluded1(&at(5.0, 6.0)));
+    // Embree makes no promise about hits exactly at tnear or tfar (Embree 3.13.5 here
+    // counts tnear < t <= tfar), so the boundaries themselves are not tested.
 
     // occluded4 on the same rays, one per lane.
-    let rays = [at(0.0, 4.99), at(0.0, 5.01), at(5.01, 100.0), at(4.99, f32::INFINITY)];
+    let rays = [
+        at(0.0, 4.99),
+        at(0.0, 5.01),
+        at(5.01, 100.0),
+        at(4.99, f32::INFINITY),
+    ];
     let mut p = RayHit4::new();
     for (k, r) in rays.iter().enumerate() {
         p.set_ray(k, r);
     }
     scene.occluded4(&mut p, [true; 4], Coherence::Coherent);
-    assert_eq!([0, 1, 2, 3].map(|k| p.occluded(k)), [false, true, false, true]);
+    assert_eq!(
+        [0, 1, 2, 3].map(|k| p.occluded(k)),
+        [false, true, false, true]
+    );
     // A miss leaves tfar as it was.
     assert_eq!(p.ray(0).tfar, 4.99);
     assert_eq!(p.ray(2).tfar, 100.0);
 }
 
+/// Rays Embree cannot trace: NaN, infinite or huge (beyond ±1.844e18) components, negative
+/// or NaN tnear, NaN tfar. Debian's Embree aborts on them; the safe layer reports misses.
+fn untraceable_rays() -> Vec<Ray> {
+    let good = Ray::new(Vec3::new(0.5, 1.0, -3.0), Vec3::Z);
+    let mut v = vec![];
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, -2e18] {
+        for i in 0..3 {
+            let mut r = good;
+            r.org[i] = bad;
+            v.push(r);
+            let mut r = good;
+            r.dir[i] = bad;
+            v.push(r);
+        }
+    }
+    v.push(Ray {
+        tnear: -1.0,
+        ..good
+    });
+    v.push(Ray {
+        tnear: -0.0,
+        ..good
+    }); // -0.0 >= 0: traceable, and a hit
+    v.push(Ray {
+        tnear: f32::NAN,
+        ..good
+    });
+    v.push(Ray {
+        tfar: f32::NAN,
+        ..good
+    });
+    v
+}
+
+#[test]
+fn untraceable_rays_are_misses_not_aborts() {
+    set_flush_denormals();
+    let scene = one_triangle([[0.0, 0.0, 2.0], [2.0, 0.0, 2.0], [0.0, 4.0, 2.0]]);
+    let rays = untraceable_rays();
+    for r in &rays {
+        let ok = r.tnear.to_bits() == (-0.0f32).to_bits();
+        assert_eq!(r.is_traceable(), ok, "{r:?}");
+        assert_eq!(scene.intersect1(r).is_some(), ok, "{r:?}");
+        assert_eq!(scene.occluded1(r), ok, "{r:?}");
+    }
+    // Still traceable: a huge but allowed origin, a zero direction, tnear > tfar, tnear = ∞.
+    let big = Ray::new(Vec3::new(0.5, 1.0, -1.8e18), Vec3::Z);
+    assert!(big.is_traceable());
+    assert!(scene.occluded1(&big));
+    for r in [
+        Ray::new(Vec3::ZERO, Vec3::ZERO),
+        Ray {
+            tnear: 6.0,
+            tfar: 5.0,
+            ..big
+        },
+        Ray {
+            tnear: f32::INFINITY,
+            ..big
+        },
+    ] {
+        assert!(r.is_traceable(), "{r:?}");
+        assert_eq!(scene.intersect1(&r), None);
+        assert!(!scene.occluded1(&r));
+    }
+    // In packets such lanes are left as they are, next to lanes that hit.
+    let good = Ray::new(Vec3::new(0.5, 1.0, -3.0), Vec3::Z);
+    for chunk in rays.chunks(3) {
+        for coherence in [Coherence::Coherent, Coherence::Incoherent] {
+            let mut p = RayHit4::new();
+            p.set_ray(0, &good);
+            for (k, r) in chunk.iter().enumerate() {
+                p.set_ray(k + 1, r);
+            }
+            let before = snapshot(&p);
+            scene.intersect4(&mut p, [true; 4], coherence);
+            assert_eq!(p.hit(0).map(|h| h.t), Some(5.0));
+            for (k, r) in chunk.iter().enumerate() {
+                if r.is_traceable() {
+                    assert_eq!(p.hit(k + 1).map(|h| h.t), Some(5.0));
+                } else {
+                    assert_eq!(snapshot(&p)[k + 1], before[k + 1], "{r:?}");
+                }
+            }
+            let mut p = RayHit4::new();
+            p.set_ray(0, &good);
+            for (k, r) in chunk.iter().enumerate() {
+                p.set_ray(k + 1, r);
+            }
+            let before = snapshot(&p);
+            scene.occluded4(&mut p, [true; 4], coherence);
+            assert!(p.occluded(0));
+            for (k, r) in chunk.iter().enumerate() {
+                assert_eq!(p.occluded(k + 1), r.is_traceable(), "{r:?}");
+                if !r.is_traceable() {
+                    assert_eq!(snapshot(&p)[k + 1], before[k + 1], "{r:?}");
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn empty_scene_misses() {
     set_flush_denormals();
-    let scene = Device::new().unwrap().scene_builder().unwrap().commit().unwrap();
+    let scene = Device::new()
+        .unwrap()
+        .scene_builder()
+        .unwrap()
+        .commit()
+        .unwrap();
     assert_eq!(scene.triangle_count(), 0);
     let r = Ray::new(Vec3::ZERO, Vec3::Z);
     assert_eq!(scene.intersect1(&r), None);
@@ -449,7 +613,10 @@ fn check_intersect4(
         let after = snapshot(&p);
         for k in 0..4 {
             if !active[k] {
-                assert_eq!(after[k], before[k], "inactive lane {k} of packet {i} was modified");
+                assert_eq!(
+                    after[k], before[k],
+                    "inactive lane {k} of packet {i} was modified"
+                );
                 continue;
             }
             active_lanes += 1;
@@ -469,14 +636,20 @@ fn check_intersect4(
                     other_prim += 1;
                 }
             }
-            assert_eq!(ray_bits(&p.ray(k)), ray_bits(&expect), "lane {k} ray after the query");
+            assert_eq!(
+                ray_bits(&p.ray(k)),
+                ray_bits(&expect),
+                "lane {k} ray after the query"
+            );
         }
     }
     (active_lanes, hits, other_prim)
 }
 
 fn quads_of(rays: &[Ray]) -> Vec<[Ray; 4]> {
-    rays.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
+    rays.chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect()
 }
 
 #[test]
@@ -484,11 +657,18 @@ fn intersect4_incoherent_is_bitwise_intersect1() {
     set_flush_denormals();
     let scene = test_scene();
     let rays = random_rays(1, N_RAYS);
-    let (lanes, hits, other) = check_intersect4(&scene, &quads_of(&rays), Coherence::Incoherent, 10, |_, s, p| {
-        hit_bits(s) == hit_bits(p)
-    });
+    let (lanes, hits, other) = check_intersect4(
+        &scene,
+        &quads_of(&rays),
+        Coherence::Incoherent,
+        10,
+        |_, s, p| hit_bits(s) == hit_bits(p),
+    );
     eprintln!("incoherent: {lanes} active lanes, {hits} hits, {other} other primitives");
-    assert!(lanes > N_RAYS / 2 - 500 && hits > lanes / 4 && hits < lanes * 3 / 4, "{lanes} lanes, {hits} hits");
+    assert!(
+        lanes > N_RAYS / 2 - 500 && hits > lanes / 4 && hits < lanes * 3 / 4,
+        "{lanes} lanes, {hits} hits"
+    );
     assert_eq!(other, 0);
     // And on coherent camera quads (still with the incoherent flag).
     let quads = camera_quads(64, 64);
@@ -522,14 +702,26 @@ fn intersect4_coherent_matches_intersect1_up_to_edges() {
     set_flush_denormals();
     let scene = test_scene();
     let rays = random_rays(2, N_RAYS);
-    let (lanes, hits, other) = check_intersect4(&scene, &quads_of(&rays), Coherence::Coherent, 20, same_up_to_edges);
+    let (lanes, hits, other) = check_intersect4(
+        &scene,
+        &quads_of(&rays),
+        Coherence::Coherent,
+        20,
+        same_up_to_edges,
+    );
     eprintln!("coherent, random rays: {lanes} active lanes, {hits} hits, {other} other primitives");
     assert!(hits > lanes / 4, "{lanes} lanes, {hits} hits");
     let quads = camera_quads(128, 128);
-    let (lanes, hits, other) = check_intersect4(&scene, &quads, Coherence::Coherent, 21, same_up_to_edges);
-    eprintln!("coherent, camera quads: {lanes} active lanes, {hits} hits, {other} other primitives");
+    let (lanes, hits, other) =
+        check_intersect4(&scene, &quads, Coherence::Coherent, 21, same_up_to_edges);
+    eprintln!(
+        "coherent, camera quads: {lanes} active lanes, {hits} hits, {other} other primitives"
+    );
     assert!(hits > lanes / 2);
-    assert!(other * 100 <= hits, "edge ties must stay rare: {other} of {hits}");
+    assert!(
+        other * 100 <= hits,
+        "edge ties must stay rare: {other} of {hits}"
+    );
 }
 
 #[test]
@@ -543,7 +735,10 @@ fn occluded_agrees_with_intersect() {
         assert_eq!(o, scene.intersect1(r).is_some(), "{r:?}");
         occluded += o as usize;
     }
-    assert!(occluded > N_RAYS / 4 && occluded < N_RAYS * 3 / 4, "{occluded} of {N_RAYS} occluded");
+    assert!(
+        occluded > N_RAYS / 4 && occluded < N_RAYS * 3 / 4,
+        "{occluded} of {N_RAYS} occluded"
+    );
 
     for coherence in [Coherence::Incoherent, Coherence::Coherent] {
         let mut rng = Pcg32::new(30, 5);
@@ -560,17 +755,28 @@ fn occluded_agrees_with_intersect() {
             let after = snapshot(&p);
             for k in 0..4 {
                 if !active[k] {
-                    assert_eq!(after[k], before[k], "inactive lane {k} of packet {i} was modified");
+                    assert_eq!(
+                        after[k], before[k],
+                        "inactive lane {k} of packet {i} was modified"
+                    );
                     continue;
                 }
                 let r = &quad[k];
                 let hit = scene.intersect1(r).is_some();
-                assert_eq!(p.occluded(k), hit, "packet {i} lane {k} ({coherence:?}): {r:?}");
+                assert_eq!(
+                    p.occluded(k),
+                    hit,
+                    "packet {i} lane {k} ({coherence:?}): {r:?}"
+                );
                 let mut expect = *r;
                 if hit {
                     expect.tfar = f32::NEG_INFINITY;
                 }
-                assert_eq!(ray_bits(&p.ray(k)), ray_bits(&expect), "lane {k} ray after occluded4");
+                assert_eq!(
+                    ray_bits(&p.ray(k)),
+                    ray_bits(&expect),
+                    "lane {k} ray after occluded4"
+                );
             }
         }
     }
@@ -581,7 +787,10 @@ fn thread_pool_queries_equal_serial_ones() {
     set_flush_denormals();
     let scene = test_scene();
     let rays = random_rays(4, N_RAYS);
-    let serial: Vec<_> = rays.iter().map(|r| hit_bits(&scene.intersect1(r))).collect();
+    let serial: Vec<_> = rays
+        .iter()
+        .map(|r| hit_bits(&scene.intersect1(r)))
+        .collect();
     let serial_occ: Vec<bool> = rays.iter().map(|r| scene.occluded1(r)).collect();
     let quads = quads_of(&rays);
     let packets = |q: &[Ray; 4]| {
@@ -596,9 +805,21 @@ fn thread_pool_queries_equal_serial_ones() {
     let pool = thread_pool(2).expect("pool");
     assert_eq!(pool.current_num_threads(), 2);
     let (par, par_occ, par_packets) = pool.install(|| {
-        let par: Vec<_> = rays.par_iter().with_min_len(64).map(|r| hit_bits(&scene.intersect1(r))).collect();
-        let occ: Vec<bool> = rays.par_iter().with_min_len(64).map(|r| scene.occluded1(r)).collect();
-        let pk: Vec<_> = quads.par_iter().with_min_len(16).flat_map_iter(packets).collect();
+        let par: Vec<_> = rays
+            .par_iter()
+            .with_min_len(64)
+            .map(|r| hit_bits(&scene.intersect1(r)))
+            .collect();
+        let occ: Vec<bool> = rays
+            .par_iter()
+            .with_min_len(64)
+            .map(|r| scene.occluded1(r))
+            .collect();
+        let pk: Vec<_> = quads
+            .par_iter()
+            .with_min_len(16)
+            .flat_map_iter(packets)
+            .collect();
         (par, occ, pk)
     });
     assert_eq!(par, serial);
@@ -613,7 +834,9 @@ fn thread_pool_queries_equal_serial_ones() {
             .map(|c| {
                 sc.spawn(move || {
                     set_flush_denormals();
-                    c.iter().map(|r| hit_bits(&s.intersect1(r))).collect::<Vec<_>>()
+                    c.iter()
+                        .map(|r| hit_bits(&s.intersect1(r)))
+                        .collect::<Vec<_>>()
                 })
             })
             .collect();
@@ -646,7 +869,9 @@ fn invalid_vertex_format_is_embrees_error() {
     let scene = b.commit().expect("commit after a failed attach");
     assert_eq!(scene.triangle_count(), 1);
     assert_eq!(scene.geometry_count(), 1);
-    let h = scene.intersect1(&Ray::new(Vec3::new(0.25, 0.25, -1.0), Vec3::Z)).unwrap();
+    let h = scene
+        .intersect1(&Ray::new(Vec3::new(0.25, 0.25, -1.0), Vec3::Z))
+        .unwrap();
     assert_eq!((h.geom_id, h.prim_id), (0, 0));
 }
 
@@ -658,8 +883,13 @@ fn out_of_range_index_is_our_error() {
         .expect_err("index 3 with 3 vertices");
     eprintln!("{e}");
     assert_eq!(e.code, RTC_ERROR_INVALID_ARGUMENT);
-    assert!(e.message.contains("triangle 1") && e.message.contains("out of range"), "{e}");
-    let e = b.attach_triangles(&v, &[[0, 1, u32::MAX]]).expect_err("u32::MAX");
+    assert!(
+        e.message.contains("triangle 1") && e.message.contains("out of range"),
+        "{e}"
+    );
+    let e = b
+        .attach_triangles(&v, &[[0, 1, u32::MAX]])
+        .expect_err("u32::MAX");
     assert_eq!(e.code, RTC_ERROR_INVALID_ARGUMENT);
     // Nothing was attached.
     assert_eq!(b.attach_triangles(&v, &[[0, 1, 2]]), Ok(0));
@@ -687,8 +917,11 @@ fn invalid_device_config_is_an_error() {
     for config in ["threads=1", "threads=1,isa=sse2", ""] {
         let d = Device::with_config(config).unwrap_or_else(|e| panic!("{config:?}: {e}"));
         let mut b = d.scene_builder().unwrap();
-        b.attach_triangles(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])
-            .unwrap();
+        b.attach_triangles(
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            &[[0, 1, 2]],
+        )
+        .unwrap();
         let s = b.commit().unwrap();
         assert!(s.occluded1(&Ray::new(Vec3::new(0.25, 0.25, -1.0), Vec3::Z)));
     }

@@ -333,7 +333,8 @@ impl Ray {
     /// Embree, whose ray-validity assertions abort the process in Debian's build.
     #[inline]
     pub fn is_traceable(&self) -> bool {
-        traceable(self.org.to_array(), self.dir.to_array(), self.tnear, self.tfar)
+        let (o, d) = (self.org, self.dir);
+        traceable([o.x, o.y, o.z], [d.x, d.y, d.z], self.tnear, self.tfar)
     }
 }
 
@@ -346,7 +347,8 @@ const FLT_LARGE: f32 = 1.844e18;
 fn traceable(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
     // `abs(x) <= FLT_LARGE` is false for NaN and ±∞; `&` keeps it branch-free.
     let ok = |x: f32| x.abs() <= FLT_LARGE;
-    ok(org[0]) & ok(org[1]) & ok(org[2]) & ok(dir[0]) & ok(dir[1]) & ok(dir[2]) & (tnear >= 0.0) & !tfar.is_nan()
+    let segment = (tnear >= 0.0) & !tfar.is_nan();
+    ok(org[0]) & ok(org[1]) & ok(org[2]) & ok(dir[0]) & ok(dir[1]) & ok(dir[2]) & segment
 }
 
 /// The closest hit along a ray.
@@ -486,14 +488,14 @@ mod query {
     impl Ctx {
         #[inline]
         pub fn new(c: Coherence) -> Ctx {
-            let mut ctx = sys::RTCIntersectContext::default();
-            ctx.flags = match c {
-                Coherence::Coherent => sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
-                Coherence::Incoherent => sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
-            };
-            ctx.filter = None;
-            ctx.instID = [sys::RTC_INVALID_GEOMETRY_ID; 1];
-            Ctx(ctx)
+            Ctx(sys::RTCIntersectContext {
+                flags: match c {
+                    Coherence::Coherent => sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
+                    Coherence::Incoherent => sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+                },
+                filter: None,
+                instID: [sys::RTC_INVALID_GEOMETRY_ID; 1],
+            })
         }
     }
 }

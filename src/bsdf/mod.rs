@@ -167,24 +167,66 @@ pub fn refract(wo: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
     Some((-wo / eta + (cos_i / eta - cos_t) * n).normalize())
 }
 
+/// A material with its spectral parameters evaluated at a path's four wavelengths, so
+/// that light sampling and BSDF sampling at one vertex evaluate the spectra once.
+#[derive(Debug, Clone, Copy)]
+pub enum Lobe {
+    /// Lambertian with per-lane albedo.
+    Diffuse(Vec4),
+    /// Mirror with per-lane reflectance.
+    Mirror(Vec4),
+    /// Dielectric with per-lane interior index and the exterior index.
+    Dielectric(Vec4, f32),
+}
+
 impl Material {
     /// Whether every scattering event is a Dirac delta (no light sampling helps).
     pub fn is_specular(&self) -> bool {
         !matches!(self, Material::Diffuse { .. })
     }
 
+    /// The material at the wavelengths `lambda`.
+    #[inline]
+    pub fn at(&self, lambda: Vec4) -> Lobe {
+        match self {
+            Material::Diffuse { reflectance } => Lobe::Diffuse(reflectance.eval4(lambda)),
+            Material::Mirror { reflectance } => Lobe::Mirror(reflectance.eval4(lambda)),
+            Material::Dielectric { ior, ext_ior } => Lobe::Dielectric(ior.eval4(lambda), *ext_ior),
+        }
+    }
+
+    /// f·|cos θᵢ| and per-lane pdf (see [`Lobe::eval`]).
+    #[inline]
+    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, lambda: Vec4) -> (Vec4, Vec4) {
+        self.at(lambda).eval(n, wo, wi)
+    }
+
+    /// Samples a direction with the hero's wavelength (see [`Lobe::sample`]).
+    #[inline]
+    pub fn sample(&self, n: Vec3, wo: Vec3, lambda: Vec4, uc: f32, u: [f32; 2]) -> Option<BsdfSample> {
+        self.at(lambda).sample(n, wo, uc, u)
+    }
+}
+
+impl Lobe {
+    /// Whether every scattering event is a Dirac delta (no light sampling helps).
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        !matches!(self, Lobe::Diffuse(_))
+    }
+
     /// f·|cos θᵢ| and the per-lane pdf of sampling `wi`, for light sampling and MIS.
     /// `n` is the geometric normal, `wo` points back along the incoming ray.
     #[inline]
-    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, lambda: Vec4) -> (Vec4, Vec4) {
+    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3) -> (Vec4, Vec4) {
         match self {
-            Material::Diffuse { reflectance } => {
+            Lobe::Diffuse(albedo) => {
                 let (co, ci) = (n.dot(wo), n.dot(wi));
                 if co * ci <= 0.0 {
                     return (Vec4::ZERO, Vec4::ZERO);
                 }
                 let c = ci.abs() / PI;
-                (reflectance.eval4(lambda) * c, Vec4::splat(c))
+                (*albedo * c, Vec4::splat(c))
             }
             _ => (Vec4::ZERO, Vec4::ZERO),
         }
@@ -193,9 +235,9 @@ impl Material {
     /// Samples a direction with the hero's wavelength (lane 0). `uc` picks between
     /// reflection and refraction, `u` is the 2-D sample for a direction.
     #[inline]
-    pub fn sample(&self, n: Vec3, wo: Vec3, lambda: Vec4, uc: f32, u: [f32; 2]) -> Option<BsdfSample> {
+    pub fn sample(&self, n: Vec3, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSample> {
         match self {
-            Material::Diffuse { reflectance } => {
+            Lobe::Diffuse(albedo) => {
                 let ns = if n.dot(wo) < 0.0 { -n } else { n };
                 let wi = sample_cosine(ns, u);
                 let c = ns.dot(wi);
@@ -205,27 +247,27 @@ impl Material {
                 let pdf = c / PI;
                 Some(BsdfSample {
                     wi,
-                    f_cos: reflectance.eval4(lambda) * pdf,
+                    f_cos: *albedo * pdf,
                     pdf: Vec4::splat(pdf),
                     specular: false,
                 })
             }
-            Material::Mirror { reflectance } => {
+            Lobe::Mirror(reflectance) => {
                 let ns = if n.dot(wo) < 0.0 { -n } else { n };
                 Some(BsdfSample {
                     wi: reflect(wo, ns),
-                    f_cos: reflectance.eval4(lambda),
+                    f_cos: *reflectance,
                     pdf: Vec4::ONE,
                     specular: true,
                 })
             }
-            Material::Dielectric { ior, ext_ior } => {
+            Lobe::Dielectric(n_in, ext_ior) => {
+                let (n_in, ext_ior) = (*n_in, *ext_ior);
                 let cos_o = n.dot(wo);
                 let entering = cos_o > 0.0;
                 let ns = if entering { n } else { -n };
-                let n_in = ior.eval4(lambda);
                 // Relative index n_t / n_i per lane.
-                let eta = if entering { n_in / *ext_ior } else { Vec4::splat(*ext_ior) / n_in };
+                let eta = if entering { n_in / ext_ior } else { Vec4::splat(ext_ior) / n_in };
                 let c = cos_o.abs();
                 let fr = Vec4::new(
                     fresnel_dielectric(c, eta.x),

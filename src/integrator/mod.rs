@@ -55,6 +55,26 @@ fn spawn_eps(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
+/// The last emitter's spectral radiance at the path's wavelengths: a path meets the same
+/// light again and again (every light sample, every emitter hit), and its wavelengths do
+/// not change.
+#[derive(Default)]
+struct EmissionCache {
+    emitter: Option<u32>,
+    value: Vec4,
+}
+
+impl EmissionCache {
+    #[inline]
+    fn get(&mut self, e: u32, lambda: Vec4, lights: &crate::light::Lights) -> Vec4 {
+        if self.emitter != Some(e) {
+            self.emitter = Some(e);
+            self.value = lights.emitters[e as usize].spectral_radiance(lambda);
+        }
+        self.value
+    }
+}
+
 /// A shadow ray between two surface points, both pushed off their surfaces towards each
 /// other. The ray runs between the *offset* points: measuring the length from the
 /// unshifted point instead makes the ray reach the light's own surface at grazing angles.
@@ -96,6 +116,7 @@ pub fn radiance(
     let mut prev_bsdf: Option<(Vec4, Vec4, Vec3)> = None;
     let mut depth: i32 = 0;
     let lights = &scene.lights;
+    let mut le_cache = EmissionCache::default();
 
     loop {
         stats.rays += 1;
@@ -105,8 +126,12 @@ pub fn radiance(
         let ng = hit.ng.normalize();
         let wo = -ray.dir;
 
-        if let Some(em) = lights.emitter_of(hit.geom_id) {
-            let le = em.radiance(lambda, ng.dot(wo));
+        if let Some(e) = lights.emitter_index_of(hit.geom_id) {
+            let le = if lights.emitters[e as usize].emits_towards(ng.dot(wo)) {
+                le_cache.get(e, lambda, lights)
+            } else {
+                Vec4::ZERO
+            };
             if le != Vec4::ZERO {
                 match prev_bsdf {
                     None => l += beta * le / ratio.element_sum(),
@@ -125,7 +150,7 @@ pub fn radiance(
             break;
         }
         let Some(mat_id) = scene.geometries[hit.geom_id as usize].material else { break };
-        let material = &scene.materials[mat_id as usize];
+        let material = scene.materials[mat_id as usize].at(lambda);
 
         // Next-event estimation: one point on a light, MIS against BSDF sampling.
         let u_light = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
@@ -136,10 +161,13 @@ pub fn radiance(
                 let d = d2.sqrt();
                 let wi = to / d;
                 let cos_l = ls.n.dot(-wi);
-                let em = &lights.emitters[ls.emitter as usize];
-                let le = em.radiance(lambda, cos_l);
+                let le = if lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
+                    le_cache.get(ls.emitter, lambda, lights)
+                } else {
+                    Vec4::ZERO
+                };
                 if le != Vec4::ZERO && d > 0.0 {
-                    let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi, lambda);
+                    let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi);
                     if f_cos != Vec4::ZERO {
                         let p_light = ls.pdf_area * d2 / cos_l.abs();
                         let shadow = shadow_ray(p, ng, ls.p, ls.n, wi);
@@ -156,7 +184,7 @@ pub fn radiance(
         // Continue the path with the hero's BSDF sample.
         let uc = rng.next_f32();
         let u2 = rng.next_2d();
-        let Some(bs) = material.sample(ng, wo, lambda, uc, u2) else { break };
+        let Some(bs) = material.sample(ng, wo, uc, u2) else { break };
         let p0 = bs.pdf.x;
         if p0 <= 0.0 {
             break;
