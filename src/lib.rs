@@ -16,3 +16,4 @@ pub mod light;
 pub mod output;
 pub mod sampler;
 pub mod scene;
+pub mod fluoro;

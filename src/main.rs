@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use stokes::integrator::render::{render, RenderOptions};
-use stokes::integrator::Spectral;
+use stokes::integrator::{Shifting, Spectral};
 use stokes::scene::Scene;
 
 #[derive(Parser)]
@@ -77,6 +77,9 @@ struct RenderArgs {
     /// Wavelength sampling: four hero-driven wavelengths per path, or one.
     #[arg(long, value_enum, default_value_t = Spectral::Hwss)]
     spectral: Spectral,
+    /// How the four wavelengths move at a fluorescent vertex (HWSS).
+    #[arg(long, value_enum, default_value_t = Shifting::Independent)]
+    shifting: Shifting,
     /// Path segments from the camera: 1 = emitters only, 2 = direct light, −1 = unbounded.
     #[arg(long, allow_negative_numbers = true)]
     max_depth: Option<i32>,
@@ -125,8 +128,16 @@ fn sibling(path: &Path, suffix: &str) -> PathBuf {
     path.with_file_name(format!("{stem}{suffix}"))
 }
 
+fn load(path: &Path) -> Result<Scene, String> {
+    let scene = Scene::load(path)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(scene)
+}
+
 fn cmd_render(a: &RenderArgs) -> Result<(), String> {
-    let mut scene = Scene::load(&a.scene)?;
+    let mut scene = load(&a.scene)?;
     let (width, height) = a.res.unwrap_or((scene.camera.width, scene.camera.height));
     scene.set_resolution(width, height);
     let opts = RenderOptions {
@@ -136,6 +147,7 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         seed: a.seed.unwrap_or(scene.render.seed),
         max_depth: a.max_depth.unwrap_or(scene.render.max_depth),
         spectral: a.spectral,
+        shifting: a.shifting,
         threads: a.threads,
     };
     if opts.spp == 0 {
@@ -176,6 +188,7 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         ("spp".to_string(), opts.spp.to_string()),
         ("seed".to_string(), opts.seed.to_string()),
         ("spectral".to_string(), opts.spectral.name().to_string()),
+        ("shifting".to_string(), opts.shifting.name().to_string()),
         ("max_depth".to_string(), opts.max_depth.to_string()),
         ("render_seconds".to_string(), format!("{:.3}", result.seconds)),
     ];
@@ -227,7 +240,7 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
 }
 
 fn cmd_info(path: &Path) -> Result<(), String> {
-    let scene = Scene::load(path)?;
+    let scene = load(path)?;
     println!("scene       {}", path.display());
     println!(
         "camera      {}x{}, render defaults: {} spp, max depth {}, seed {}",
@@ -256,7 +269,13 @@ fn cmd_info(path: &Path) -> Result<(), String> {
             ""
         }
     );
-    println!("fluorescence none: plain HWSS, no shift sampling");
+    if scene.has_fluorescence() {
+        println!(
+            "fluorescence yes: fluorescent HWSS, --shifting independent (default) or constant; --spectral mono for one wavelength per path"
+        );
+    } else {
+        println!("fluorescence none: plain HWSS, no shift sampling (--shifting has no effect)");
+    }
     println!("media       none: no distance tracking");
     Ok(())
 }

@@ -66,6 +66,31 @@ impl Pcg32 {
     }
 }
 
+/// A second stream of one pixel sample, created on first use (only fluorescent vertices
+/// draw from it, so scenes without fluorescence never pay for it).
+#[derive(Clone, Debug)]
+pub struct LazyStream {
+    key: (u64, u64, u64),
+    rng: Option<Pcg32>,
+}
+
+impl LazyStream {
+    /// The stream of (seed, pixel, sample), salted apart from the main stream.
+    pub fn new(seed: u64, pixel: u64, sample: u64) -> LazyStream {
+        LazyStream {
+            key: (seed ^ 0x5348_4946_5453_5452, pixel, sample),
+            rng: None,
+        }
+    }
+
+    /// The generator, created at the first call.
+    #[inline]
+    pub fn get(&mut self) -> &mut Pcg32 {
+        let (a, b, c) = self.key;
+        self.rng.get_or_insert_with(|| Pcg32::for_sample(a, b, c))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,6 +2,7 @@
  * safe Rust layer (examples/embree_wrapper_bench.rs shoots exactly the same rays).
  *
  *   cc -O2 baseline.c -lembree3 -lm -o baseline && ./baseline [stacks slices size runs passes]
+ *   ./baseline --obj sphere.obj [stacks slices]   writes the sphere as an OBJ (for Embree's viewer)
  *
  * Geometry: a UV sphere, centre (0,0,0), radius 1, `stacks` latitude bands and `slices`
  * longitude segments: 2 + slices*(stacks-1) vertices (north pole, the rings from north to
@@ -19,6 +20,7 @@
 #include <pmmintrin.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 #include <xmmintrin.h>
 
@@ -41,11 +43,9 @@ static int cmp_double(const void* a, const void* b) {
   return (x > y) - (x < y);
 }
 
-static RTCScene uv_sphere(RTCDevice device, unsigned stacks, unsigned slices) {
+/* Fills v (3 floats per vertex) and t (3 indices per triangle) with the UV sphere. */
+static void sphere_mesh(unsigned stacks, unsigned slices, float* v, unsigned* t) {
   unsigned nv = 2 + slices * (stacks - 1), nt = 2 * slices * (stacks - 1);
-  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  float* v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, nv);
-  unsigned* t = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, nt);
   unsigned k = 0;
   v[k++] = 0.0f; v[k++] = 1.0f; v[k++] = 0.0f;
   for (unsigned i = 1; i < stacks; i++) {
@@ -71,7 +71,15 @@ static RTCScene uv_sphere(RTCDevice device, unsigned stacks, unsigned slices) {
       TRI(a, b, d);
       TRI(a, d, c);
     }
-  if (n != 3 * nt) { fprintf(stderr, "triangle count mismatch\n"); exit(1); }
+  if (n != 3 * nt || k != 3 * nv) { fprintf(stderr, "sphere size mismatch\n"); exit(1); }
+}
+
+static RTCScene uv_sphere(RTCDevice device, unsigned stacks, unsigned slices) {
+  unsigned nv = 2 + slices * (stacks - 1), nt = 2 * slices * (stacks - 1);
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  float* v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, nv);
+  unsigned* t = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, nt);
+  sphere_mesh(stacks, slices, v, t);
   rtcCommitGeometry(g);
   RTCScene scene = rtcNewScene(device);
   rtcAttachGeometry(scene, g);
@@ -139,7 +147,29 @@ static unsigned long packet_pass(RTCScene scene, const Ray* rays, unsigned w, un
   return hits;
 }
 
+static int write_obj(const char* path, unsigned stacks, unsigned slices) {
+  unsigned nv = 2 + slices * (stacks - 1), nt = 2 * slices * (stacks - 1);
+  float* v = malloc(sizeof(float) * 3 * nv);
+  unsigned* t = malloc(sizeof(unsigned) * 3 * nt);
+  sphere_mesh(stacks, slices, v, t);
+  FILE* f = fopen(path, "w");
+  if (!f) { perror(path); return 1; }
+  fprintf(f, "# UV sphere %u x %u, %u triangles\n", stacks, slices, nt);
+  for (unsigned i = 0; i < nv; i++) fprintf(f, "v %.9g %.9g %.9g\n", v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+  for (unsigned i = 0; i < nt; i++) fprintf(f, "f %u %u %u\n", t[3 * i] + 1, t[3 * i + 1] + 1, t[3 * i + 2] + 1);
+  fclose(f);
+  free(v);
+  free(t);
+  printf("wrote %s: %u vertices, %u triangles\n", path, nv, nt);
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  if (argc > 2 && strcmp(argv[1], "--obj") == 0) {
+    unsigned stacks = argc > 3 ? atoi(argv[3]) : 160, slices = argc > 4 ? atoi(argv[4]) : 318;
+    if (stacks < 2 || slices < 3) { fprintf(stderr, "stacks >= 2, slices >= 3\n"); return 2; }
+    return write_obj(argv[2], stacks, slices);
+  }
   unsigned stacks = argc > 1 ? atoi(argv[1]) : 160, slices = argc > 2 ? atoi(argv[2]) : 318;
   unsigned size = argc > 3 ? atoi(argv[3]) : 1024;
   int runs = argc > 4 ? atoi(argv[4]) : 5, passes = argc > 5 ? atoi(argv[5]) : 3;

@@ -17,9 +17,11 @@
 //! ior = { sellmeier = { b = [1.03961212, 0.231792344, 1.01046945], c = [0.00600069867, 0.0200179144, 103.560653] } }
 //! ```
 
+use crate::fluoro::Reradiation;
 use crate::spectrum::Spectrum;
 use glam::{Vec3, Vec4};
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// An index of refraction as a function of wavelength.
 #[derive(Debug, Clone)]
@@ -87,6 +89,12 @@ pub enum Material {
     Mirror {
         /// Spectral reflectance in [0, 1].
         reflectance: Spectrum,
+    },
+    /// Lambertian with re-radiation: M(λi→λo)/π · cos θ. The integrator samples the
+    /// wavelength shift first ([`crate::fluoro`]); what is left is Lambertian with albedo 1.
+    FluorescentDiffuse {
+        /// The re-radiation function (its diagonal is the ordinary reflectance).
+        reradiation: Arc<Reradiation>,
     },
     /// Smooth dielectric interface (Fresnel reflection and refraction).
     Dielectric {
@@ -182,15 +190,17 @@ pub enum Lobe {
 impl Material {
     /// Whether every scattering event is a Dirac delta (no light sampling helps).
     pub fn is_specular(&self) -> bool {
-        !matches!(self, Material::Diffuse { .. })
+        !matches!(self, Material::Diffuse { .. } | Material::FluorescentDiffuse { .. })
     }
 
-    /// The material at the wavelengths `lambda`.
+    /// The material at the wavelengths `lambda`; for a fluorescent material, the part left
+    /// after the wavelength shift has been sampled (a white Lambertian).
     #[inline]
     pub fn at(&self, lambda: Vec4) -> Lobe {
         match self {
             Material::Diffuse { reflectance } => Lobe::Diffuse(reflectance.eval4(lambda)),
             Material::Mirror { reflectance } => Lobe::Mirror(reflectance.eval4(lambda)),
+            Material::FluorescentDiffuse { .. } => Lobe::Diffuse(Vec4::ONE),
             Material::Dielectric { ior, ext_ior } => Lobe::Dielectric(ior.eval4(lambda), *ext_ior),
         }
     }

@@ -16,7 +16,10 @@
 pub mod render;
 
 use crate::accel::Ray;
-use crate::sampler::Pcg32;
+use crate::bsdf::Material;
+use crate::fluoro::Reradiation;
+use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
+use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
 
@@ -36,6 +39,26 @@ impl Spectral {
         match self {
             Spectral::Hwss => "hwss",
             Spectral::Mono => "mono",
+        }
+    }
+}
+
+/// How the four lanes of a path move at a fluorescent vertex (HWSS only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Shifting {
+    /// Every lane samples its own shift with its own random numbers, weighted f_k/p_k.
+    Independent,
+    /// Every lane moves by the hero's shift Δλ; the shift pdfs enter the MIS weights.
+    Constant,
+}
+
+impl Shifting {
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Shifting::Independent => "independent",
+            Shifting::Constant => "constant",
         }
     }
 }
@@ -95,13 +118,20 @@ pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, nq: Vec3, wi: Vec3) -> Ray {
 /// Radiance along a camera ray at the wavelengths `lambda`, already weighted by the
 /// balance heuristic over lanes: summing `xyz(λ_k)·L_k / pdf(λ)` over the lanes gives an
 /// unbiased XYZ estimate.
+///
+/// `shift_rng` draws the wavelength shifts at fluorescent vertices: a stream of its own,
+/// so that a scene renders with the same main random numbers whether or not a material
+/// fluoresces (a diagonal-only re-radiation matrix then gives the plain diffuse image).
+#[allow(clippy::too_many_arguments)]
 pub fn radiance(
     scene: &Scene,
     camera_ray: Ray,
-    lambda: Vec4,
+    mut lambda: Vec4,
     spectral: Spectral,
+    shifting: Shifting,
     max_depth: i32,
     rng: &mut Pcg32,
+    shift_rng: &mut LazyStream,
     stats: &mut PathStats,
 ) -> Vec4 {
     let mut beta = match spectral {
@@ -150,7 +180,18 @@ pub fn radiance(
             break;
         }
         let Some(mat_id) = scene.geometries[hit.geom_id as usize].material else { break };
-        let material = scene.materials[mat_id as usize].at(lambda);
+        let mat = &scene.materials[mat_id as usize];
+        if let Material::FluorescentDiffuse { reradiation } = mat {
+            let lanes = match spectral {
+                Spectral::Hwss => shifting,
+                Spectral::Mono => Shifting::Independent,
+            };
+            if !shift_wavelengths(reradiation, lanes, &mut lambda, &mut beta, &mut ratio, shift_rng.get()) {
+                break;
+            }
+            le_cache = EmissionCache::default();
+        }
+        let material = mat.at(lambda);
 
         // Next-event estimation: one point on a light, MIS against BSDF sampling.
         let u_light = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
@@ -209,4 +250,77 @@ pub fn radiance(
         ray = Ray::new(p + ng * eps * ng.dot(bs.wi).signum(), bs.wi);
     }
     l
+}
+
+/// Samples the input wavelengths at a fluorescent vertex of a camera path and updates the
+/// lanes: `lambda` becomes the wavelengths before re-radiation, `beta` takes the value over
+/// the hero's pdf, `ratio` the pdf ratios of the "lane j as hero" techniques. Returns
+/// `false` when the hero cannot continue (the path ends).
+///
+/// - Independent: each live lane draws its own shift; its weight is M_k/q_k = D + σ_se at
+///   its wavelength, and the shift pdfs, common to every technique, cancel from `ratio`.
+///   A lane that cannot shift (D + σ_se = 0) is zeroed and leaves the MIS sum.
+/// - Constant: the hero draws the shift and every lane follows it (kept wavelengths stay,
+///   shifted ones move by the same Δλ); lane k's technique has pdf q_k(λ_k+Δλ | λ_k) —
+///   the keep probability for a kept wavelength, a density for a shift, never mixed.
+pub fn shift_wavelengths(
+    rr: &Reradiation,
+    mode: Shifting,
+    lambda: &mut Vec4,
+    beta: &mut Vec4,
+    ratio: &mut Vec4,
+    rng: &mut Pcg32,
+) -> bool {
+    match mode {
+        Shifting::Independent => {
+            for k in 0..4 {
+                if ratio[k] == 0.0 && beta[k] == 0.0 {
+                    continue; // a dead lane (mono, or dropped earlier)
+                }
+                let (uc, ul) = (rng.next_f32(), rng.next_f32());
+                match rr.sample_input(lambda[k], uc, ul) {
+                    Some(s) if s.pdf > 0.0 => {
+                        beta[k] *= s.value / s.pdf;
+                        lambda[k] = s.lambda_i;
+                    }
+                    _ => {
+                        if k == 0 {
+                            return false;
+                        }
+                        beta[k] = 0.0;
+                        ratio[k] = 0.0;
+                    }
+                }
+            }
+            true
+        }
+        Shifting::Constant => {
+            let (uc, ul) = (rng.next_f32(), rng.next_f32());
+            let Some(h) = rr.sample_input(lambda.x, uc, ul) else { return false };
+            if h.pdf <= 0.0 {
+                return false;
+            }
+            let delta = h.lambda_i - lambda.x;
+            for k in 0..4 {
+                let lo = lambda[k];
+                let li = if h.kept { lo } else { lo + delta };
+                let (value, pdf) = if k == 0 {
+                    (h.value, h.pdf)
+                } else if (LAMBDA_MIN..LAMBDA_MAX).contains(&li) {
+                    (rr.value(li, lo, h.kept), rr.pdf_input(li, lo, h.kept))
+                } else {
+                    (0.0, 0.0)
+                };
+                if pdf > 0.0 {
+                    beta[k] *= value / h.pdf;
+                    ratio[k] *= pdf / h.pdf;
+                } else {
+                    beta[k] = 0.0;
+                    ratio[k] = 0.0;
+                }
+                lambda[k] = li;
+            }
+            true
+        }
+    }
 }

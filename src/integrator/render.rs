@@ -4,9 +4,9 @@
 //! pixel's samples are accumulated in order by one thread, so the image is the same
 //! whatever the number of threads.
 
-use super::{radiance, PathStats, Spectral};
+use super::{radiance, PathStats, Shifting, Spectral};
 use crate::color;
-use crate::sampler::Pcg32;
+use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::spectrum::{self, SampledWavelengths};
 use glam::Vec3;
@@ -28,6 +28,8 @@ pub struct RenderOptions {
     pub max_depth: i32,
     /// Wavelength sampling.
     pub spectral: Spectral,
+    /// Lane shifting at fluorescent vertices (HWSS).
+    pub shifting: Shifting,
     /// Worker threads (0 = one per core).
     pub threads: usize,
 }
@@ -114,7 +116,19 @@ pub fn pixel_sample(
         Spectral::Hwss => SampledWavelengths::sample_hwss(u),
         Spectral::Mono => SampledWavelengths::sample_mono(u),
     };
-    let l = radiance(scene, ray, wl.lambda, opts.spectral, opts.max_depth, &mut rng, stats);
+    // The shift stream: a second, independent stream of the same pixel sample.
+    let mut shift_rng = LazyStream::new(opts.seed, pixel, sample as u64);
+    let l = radiance(
+        scene,
+        ray,
+        wl.lambda,
+        opts.spectral,
+        opts.shifting,
+        opts.max_depth,
+        &mut rng,
+        &mut shift_rng,
+        stats,
+    );
     let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(wl.lambda, l));
     if rgb.is_finite() {
         Some(rgb)

@@ -191,6 +191,25 @@ pub struct MaterialDesc {
     pub ior: Option<IorDesc>,
     /// `dielectric`: exterior index (default 1).
     pub ext_ior: Option<f32>,
+    /// `fluorescent_diffuse`: a parametric dye.
+    pub dye: Option<DyeDesc>,
+    /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid).
+    pub matrix: Option<String>,
+}
+
+/// A fluorescent dye on a surface:
+/// `dye = { absorption = SPECTRUM, emission = SPECTRUM, quantum_yield = 0.9 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DyeDesc {
+    /// Fraction of the light absorbed by the dye, in [0, 1].
+    pub absorption: SpectrumDesc,
+    /// Shape of the emission spectrum (normalised by the renderer).
+    pub emission: SpectrumDesc,
+    /// Fraction of the absorbed light re-emitted, in [0, 1].
+    pub quantum_yield: f32,
+    /// Width of the re-radiation grid's cells in nm (default 2).
+    pub cell_nm: Option<f32>,
 }
 
 /// An index of refraction: `1.5`, `{ cauchy = [A, B] }` (n = A + B/λ², λ in nm) or

@@ -11,6 +11,7 @@ pub mod shapes;
 use crate::accel;
 use crate::bsdf::{Ior, Material};
 use crate::camera::Camera;
+use crate::fluoro::Reradiation;
 use crate::light::{Emitter, Lights};
 use crate::spectrum::{self, Spectrum, Tabulated};
 use desc::{IorDesc, SceneDesc, SpectrumDesc};
@@ -51,6 +52,9 @@ pub struct Scene {
     pub lights: Lights,
     /// Axis-aligned bounds of all geometry.
     pub bounds: (Vec3, Vec3),
+    /// Things worth telling the user that are not errors (clamped matrix entries, energy
+    /// gain), one message each.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -83,6 +87,7 @@ impl Scene {
             base,
             desc: &desc,
             spectra: BTreeMap::new(),
+            warnings: Vec::new(),
         }
         .build()
         .map_err(|e| format!("{}: {e}", path.display()))
@@ -105,6 +110,13 @@ impl Scene {
             .any(|m| matches!(m, Material::Dielectric { ior, .. } if ior.is_dispersive()))
     }
 
+    /// Whether any material fluoresces (then the shifting method matters).
+    pub fn has_fluorescence(&self) -> bool {
+        self.materials.iter().any(
+            |m| matches!(m, Material::FluorescentDiffuse { reradiation } if reradiation.is_fluorescent()),
+        )
+    }
+
     /// A name for reports: the file stem.
     pub fn name(&self) -> String {
         self.path
@@ -119,6 +131,7 @@ struct Builder<'a> {
     base: PathBuf,
     desc: &'a SceneDesc,
     spectra: BTreeMap<String, Spectrum>,
+    warnings: Vec<String>,
 }
 
 fn check_vec(key: &str, v: [f32; 3]) -> Result<Vec3, String> {
@@ -173,7 +186,8 @@ impl Builder<'_> {
         for (name, m) in &d.materials {
             let key = format!("materials.{name}");
             material_index.insert(name.clone(), materials.len() as u32);
-            materials.push(self.material(&key, m)?);
+            let material = self.material(&key, m)?;
+            materials.push(material);
             material_names.push(name.clone());
         }
 
@@ -257,6 +271,7 @@ impl Builder<'_> {
             geometries,
             lights,
             bounds: (lo, hi),
+            warnings: self.warnings,
         })
     }
 
@@ -373,7 +388,7 @@ impl Builder<'_> {
         }
     }
 
-    fn material(&self, key: &str, m: &desc::MaterialDesc) -> Result<Material, String> {
+    fn material(&mut self, key: &str, m: &desc::MaterialDesc) -> Result<Material, String> {
         let no = |k: &str, present: bool| -> Result<(), String> {
             if present {
                 Err(format!("{key}.{k}: not a key of a {} material", m.kind))
@@ -381,6 +396,10 @@ impl Builder<'_> {
                 Ok(())
             }
         };
+        if m.kind != "fluorescent_diffuse" {
+            no("dye", m.dye.is_some())?;
+            no("matrix", m.matrix.is_some())?;
+        }
         match m.kind.as_str() {
             "diffuse" => {
                 no("ior", m.ior.is_some())?;
@@ -415,8 +434,68 @@ impl Builder<'_> {
                 }
                 Ok(Material::Dielectric { ior, ext_ior })
             }
+            "fluorescent_diffuse" => {
+                no("ior", m.ior.is_some())?;
+                no("ext_ior", m.ext_ior.is_some())?;
+                let diagonal = match &m.reflectance {
+                    Some(r) => Some(self.spectrum(&format!("{key}.reflectance"), r, Some(Range::Unit))?),
+                    None => None,
+                };
+                let rr = match (&m.dye, &m.matrix) {
+                    (Some(d), None) => {
+                        let diagonal = diagonal.ok_or_else(|| {
+                            format!("{key}: missing key `reflectance` (the surface's ordinary reflectance) next to `dye`")
+                        })?;
+                        let a = self.spectrum(&format!("{key}.dye.absorption"), &d.absorption, Some(Range::Unit))?;
+                        let e = self.spectrum(&format!("{key}.dye.emission"), &d.emission, Some(Range::NonNegative))?;
+                        if !(0.0..=1.0).contains(&d.quantum_yield) {
+                            return Err(format!(
+                                "{key}.dye.quantum_yield: expected a number in [0, 1], found {}",
+                                d.quantum_yield
+                            ));
+                        }
+                        let cell = d.cell_nm.unwrap_or(2.0);
+                        if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
+                            return Err(format!("{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"));
+                        }
+                        Reradiation::from_dye(diagonal, &a, &e, d.quantum_yield, cell)
+                            .map_err(|e| format!("{key}.dye: {e}"))?
+                    }
+                    (None, Some(file)) => {
+                        let path = self.resolve(file);
+                        let (mut rr, report) =
+                            Reradiation::from_csv(&path).map_err(|e| format!("{key}.matrix: {e}"))?;
+                        let clamped = report.clamped_negative + report.clamped_anti_stokes;
+                        if clamped > 0 {
+                            self.warnings.push(format!(
+                                "{key}.matrix: {}: set {} negative and {} anti-Stokes (emission ≤ excitation) entries to zero",
+                                path.display(),
+                                report.clamped_negative,
+                                report.clamped_anti_stokes
+                            ));
+                        }
+                        if let Some(d) = diagonal {
+                            rr = rr.with_diagonal(d);
+                        }
+                        rr
+                    }
+                    _ => {
+                        return Err(format!(
+                            "{key}: expected exactly one of `dye = {{ ... }}` or `matrix = \"file.csv\"` for a fluorescent_diffuse material"
+                        ))
+                    }
+                };
+                for (l, total) in rr.energy_gain_rows() {
+                    self.warnings.push(format!(
+                        "{key}: re-radiation at {l} nm totals {total:.3} > 1 (the surface creates energy there)"
+                    ));
+                }
+                Ok(Material::FluorescentDiffuse {
+                    reradiation: std::sync::Arc::new(rr),
+                })
+            }
             other => Err(format!(
-                "{key}.type: expected one of \"diffuse\", \"mirror\", \"dielectric\", found {other:?}"
+                "{key}.type: expected one of \"diffuse\", \"mirror\", \"dielectric\", \"fluorescent_diffuse\", found {other:?}"
             )),
         }
     }

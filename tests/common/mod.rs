@@ -42,6 +42,7 @@ pub fn render_film(scene: &mut Scene, w: u32, h: u32, spp: u32, seed: u64, spect
         seed,
         max_depth,
         spectral,
+        shifting: stokes::integrator::Shifting::Independent,
         threads,
     };
     let r = render(scene, &opts, &|| {}).unwrap();

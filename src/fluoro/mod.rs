@@ -1,0 +1,616 @@
+//! Re-radiation (bispectral) data and wavelength-shift sampling for camera paths.
+//!
+//! A fluorescent surface re-radiates with M(λi → λo) = D(λo)·δ(λi − λo) + F(λi, λo): the
+//! outgoing spectral radiance at λo is D(λo)·L(λo) + ∫ F(λi, λo) L(λi) dλi (DESIGN.md §5).
+//!
+//! # Units and conventions
+//! - Wavelengths are in nm. D (the diagonal, the ordinary reflectance) is dimensionless.
+//!   Negative or NaN values of the diagonal spectrum count as 0 everywhere in this module.
+//! - F is a density over λi, in nm⁻¹. It is piecewise constant on a uniform grid of `n`
+//!   cells `[start + k·h, start + (k+1)·h)`: F(λi, λo) = F[cell(λi)][cell(λo)], and
+//!   F[i][o] = 0 unless i < o (a strict Stokes shift at cell level: no light is ever moved
+//!   to a shorter wavelength, not even inside one cell).
+//! - F is zero outside the grid **and outside the renderer's range**
+//!   [[`LAMBDA_MIN`], [`LAMBDA_MAX`]): a cell that sticks out of the range is clipped to it,
+//!   so every sampled input wavelength lies in the range. σ_sa and σ_se are integrals over
+//!   that range.
+//! - Out-shifting σ_sa(λi) = ∫ F(λi, λo) dλo and in-shifting σ_se(λo) = ∫ F(λi, λo) dλi
+//!   are dimensionless. A surface conserves energy when D(λi) + σ_sa(λi) ≤ 1
+//!   ([`Reradiation::energy_gain_rows`] lists the cells where it does not); σ_se is not
+//!   bounded by 1 (many input wavelengths can feed one output wavelength).
+//!
+//! # Sources
+//! - [`Reradiation::diagonal_only`]: no fluorescence, exactly a plain diffuse reflectance.
+//! - [`Reradiation::from_dye`]: a parametric dye (absorption, emission, quantum yield).
+//! - [`Reradiation::from_csv`]: a measured matrix (format below).
+//!
+//! # Measured matrix format (CSV)
+//! ```text
+//! # comments and blank lines are skipped; `#` also starts a comment mid-line
+//! nm,   360,   370,   380, ...     <- header: a label, then the emission cell CENTRES (nm)
+//! 360, 0.052, 0.000, 0.001, ...    <- excitation cell centre, then m[i][o] for every o
+//! 370, 0.000, 0.061, 0.002, ...
+//! ```
+//! Fields are separated by commas (or, on a line without a comma, by whitespace). The
+//! wavelengths are **cell centres**, evenly spaced with step h (the cell width); the
+//! excitation wavelengths (first column) must be the same list as the emission wavelengths
+//! (the header), so the matrix is square. Entry m[i][o] is the fraction of spectral radiance
+//! in excitation cell i that is re-emitted into emission cell o (dimensionless: with a
+//! constant incident spectral radiance L over cell i, cell o leaves with m[i][o]·L), so
+//! F = m / h. The diagonal m[i][i] is the ordinary reflectance: it becomes D as a
+//! [`Tabulated`] spectrum through the cell centres, held constant from the first and last
+//! centre out to the outer edges of the first and last cell. On import, negative entries and
+//! non-zero entries below the diagonal (emission shorter than excitation) are set to 0 and
+//! counted in an [`ImportReport`]; an entry that is both is counted once, as anti-Stokes.
+//!
+//! # Shift sampling
+//! On a camera path the output wavelength λo is known and the input λi is sampled
+//! ([`Reradiation::sample_input`]): keep λo with probability D/(D + σ_se), otherwise draw λi
+//! ∝ F(·, λo) (a cell from the column's CDF, uniform inside the cell). Either way the
+//! sample's value over its pdf is D(λo) + σ_se(λo).
+
+mod import;
+
+pub use import::ImportReport;
+
+use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_RANGE};
+use glam::Vec4;
+use std::path::Path;
+
+/// The most cells a grid may have (an n×n matrix and an n×n table of CDFs are stored).
+pub const MAX_CELLS: usize = 1024;
+
+/// A re-radiation function M(λi → λo): a continuous diagonal D and a gridded off-diagonal
+/// density F (see the module docs for units).
+#[derive(Clone, Debug)]
+pub struct Reradiation {
+    diagonal: Spectrum,
+    /// Nominal start of cell 0 (nm); may lie below [`LAMBDA_MIN`].
+    start: f32,
+    /// Cell width h (nm).
+    cell_nm: f32,
+    inv_cell: f32,
+    /// Number of cells.
+    n: usize,
+    /// Where F may be non-zero: the grid clipped to the renderer's range, `[lo, hi)`.
+    lo: f32,
+    hi: f32,
+    /// F (nm⁻¹), row-major: `f[i * n + o]`, zero unless `i < o`.
+    f: Vec<f32>,
+    /// σ_se per column (emission cell).
+    sigma_se: Vec<f32>,
+    /// σ_sa per row (excitation cell).
+    sigma_sa: Vec<f32>,
+    /// Column CDFs over the excitation cell, column-major: `cdf[o * n + i]` for `i < o`;
+    /// the last cell of positive weight holds exactly 1.
+    cdf: Vec<f32>,
+    fluorescent: bool,
+}
+
+/// A sampled input wavelength at a fluorescent vertex (see [`Reradiation::sample_input`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShiftSample {
+    /// The input wavelength λi (nm); equal to λo when `kept`.
+    pub lambda_i: f32,
+    /// Whether the wavelength was kept (the diagonal D) rather than shifted (F).
+    pub kept: bool,
+    /// For a kept wavelength the discrete probability D/(D+σ_se); for a shift the density
+    /// F(λi, λo)/(D+σ_se) in nm⁻¹.
+    pub pdf: f32,
+    /// M for this event: D(λo) if kept, F(λi, λo) if shifted; `value / pdf = D + σ_se`.
+    pub value: f32,
+}
+
+/// The diagonal clamped to be non-negative (NaN gives 0).
+#[inline]
+fn nonneg(v: f32) -> f32 {
+    if v > 0.0 {
+        v
+    } else {
+        0.0
+    }
+}
+
+impl Reradiation {
+    /// Only a diagonal (no fluorescence): [`Self::sample_input`] always keeps the
+    /// wavelength with probability 1 and value D, exactly like a plain diffuse reflectance.
+    pub fn diagonal_only(d: Spectrum) -> Reradiation {
+        Reradiation {
+            diagonal: d,
+            start: LAMBDA_MIN,
+            cell_nm: LAMBDA_RANGE,
+            inv_cell: 1.0 / LAMBDA_RANGE,
+            n: 0,
+            lo: LAMBDA_MIN,
+            hi: LAMBDA_MIN,
+            f: Vec::new(),
+            sigma_se: Vec::new(),
+            sigma_sa: Vec::new(),
+            cdf: Vec::new(),
+            fluorescent: false,
+        }
+    }
+
+    /// A parametric dye with the quantum yield applying to energy:
+    /// [`Self::from_dye_with_scaling`] with `energy_scaling = false`.
+    pub fn from_dye(
+        diagonal: Spectrum,
+        absorption: &Spectrum,
+        emission: &Spectrum,
+        quantum_yield: f32,
+        cell_nm: f32,
+    ) -> Result<Reradiation, String> {
+        Self::from_dye_with_scaling(
+            diagonal,
+            absorption,
+            emission,
+            quantum_yield,
+            cell_nm,
+            false,
+        )
+    }
+
+    /// A parametric dye on cells of `cell_nm` nm starting at [`LAMBDA_MIN`] (the last cell is
+    /// clipped at [`LAMBDA_MAX`]); A and E are evaluated at the cell centres (of the clipped
+    /// cell). With Φ = `quantum_yield`:
+    ///
+    /// F(λi, λo) = Φ · A(λi) · E(λo) · [λo > λi] / ∫_{λ' > λi} E(λ') dλ'
+    ///
+    /// i.e. the absorbed fraction A(λi) is re-emitted with yield Φ, spread over the part of
+    /// the emission band above λi (cell level: over the cells o > i). Then
+    /// σ_sa(λi) = Φ·A(λi) wherever some emission lies above λi (elsewhere the absorbed light
+    /// is simply lost).
+    ///
+    /// `energy_scaling = false` (the default of [`Self::from_dye`]): Φ is the fraction of
+    /// absorbed *energy* re-emitted, so σ_sa = Φ·A exactly and the energy balance of the
+    /// surface is D + Φ·A. `energy_scaling = true`: Φ is a *photon* yield and E a photon
+    /// spectrum; each re-emitted photon carries λi/λo of the absorbed photon's energy, so F
+    /// is multiplied by λi/λo (cell centres) and σ_sa < Φ·A (the Stokes loss).
+    ///
+    /// `absorption` is the fraction absorbed, in [0, 1]; `emission` a non-negative shape
+    /// (its scale does not matter); `diagonal` the surface's ordinary reflectance, which for
+    /// energy conservation should not exceed 1 − Φ·A (check with
+    /// [`Self::energy_gain_rows`]).
+    pub fn from_dye_with_scaling(
+        diagonal: Spectrum,
+        absorption: &Spectrum,
+        emission: &Spectrum,
+        quantum_yield: f32,
+        cell_nm: f32,
+        energy_scaling: bool,
+    ) -> Result<Reradiation, String> {
+        if !(0.0..=1.0).contains(&quantum_yield) {
+            return Err(format!(
+                "dye quantum yield must be in [0, 1], found {quantum_yield}"
+            ));
+        }
+        let min_cell = LAMBDA_RANGE / MAX_CELLS as f32;
+        if !(cell_nm.is_finite() && cell_nm >= min_cell) {
+            return Err(format!(
+                "dye cell width must be a number of nm ≥ {min_cell} (at most {MAX_CELLS} cells \
+                 over {LAMBDA_MIN}–{LAMBDA_MAX} nm), found {cell_nm}"
+            ));
+        }
+        // ceil, forgiving a rounding error when the width divides the range.
+        let n = ((LAMBDA_RANGE / cell_nm) - 1e-4).ceil().max(1.0) as usize;
+        let mut grid = Reradiation::diagonal_only(diagonal);
+        grid.set_grid(LAMBDA_MIN, cell_nm, n);
+
+        let mut a = vec![0.0f64; n];
+        let mut e = vec![0.0f64; n];
+        let mut w = vec![0.0f64; n];
+        let mut mid = vec![0.0f64; n];
+        for k in 0..n {
+            let (l0, l1) = grid.cell_bounds(k);
+            let c = 0.5 * (l0 + l1);
+            let av = absorption.eval(c);
+            if !(av.is_finite() && (-1e-6..=1.0 + 1e-6).contains(&av)) {
+                return Err(format!(
+                    "dye absorption must be a fraction in [0, 1], found {av} at {c} nm"
+                ));
+            }
+            let ev = emission.eval(c);
+            if !(ev.is_finite() && ev >= 0.0) {
+                return Err(format!(
+                    "dye emission must be finite and non-negative, found {ev} at {c} nm"
+                ));
+            }
+            a[k] = f64::from(av.clamp(0.0, 1.0));
+            e[k] = f64::from(ev);
+            w[k] = f64::from(l1 - l0);
+            mid[k] = f64::from(c);
+        }
+        if e.iter().all(|&v| v == 0.0) {
+            return Err(format!(
+                "dye emission is zero at every cell centre over {LAMBDA_MIN}–{LAMBDA_MAX} nm"
+            ));
+        }
+        // tail[i] = ∫_{cells above i} E = Σ_{o > i} E_o w_o.
+        let mut tail = vec![0.0f64; n];
+        for i in (0..n.saturating_sub(1)).rev() {
+            tail[i] = tail[i + 1] + e[i + 1] * w[i + 1];
+        }
+        let phi = f64::from(quantum_yield);
+        let mut f = vec![0.0f32; n * n];
+        for i in 0..n {
+            if tail[i] <= 0.0 || a[i] == 0.0 {
+                continue;
+            }
+            let row = phi * a[i] / tail[i];
+            for o in i + 1..n {
+                let scale = if energy_scaling { mid[i] / mid[o] } else { 1.0 };
+                f[i * n + o] = (row * e[o] * scale) as f32;
+            }
+        }
+        grid.set_matrix(f);
+        Ok(grid)
+    }
+
+    /// A measured matrix from a CSV file (format in the module docs). Returns the counts of
+    /// entries set to 0 so the caller can report them. Errors name the file and line.
+    pub fn from_csv(path: &Path) -> Result<(Reradiation, ImportReport), String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        Self::from_csv_str(&text, &path.display().to_string())
+    }
+
+    /// [`Self::from_csv`] on text; `source` (usually the file name) prefixes every error.
+    pub fn from_csv_str(text: &str, source: &str) -> Result<(Reradiation, ImportReport), String> {
+        import::parse(text, source)
+    }
+
+    /// The same off-diagonal F with another diagonal D (e.g. a scene's reflectance overriding
+    /// a measured matrix's diagonal).
+    pub fn with_diagonal(mut self, d: Spectrum) -> Reradiation {
+        self.diagonal = d;
+        self
+    }
+
+    /// Sets a grid of `n` cells of width `h` from `start` (no matrix yet).
+    fn set_grid(&mut self, start: f32, h: f32, n: usize) {
+        self.start = start;
+        self.cell_nm = h;
+        self.inv_cell = 1.0 / h;
+        self.n = n;
+        self.lo = start.max(LAMBDA_MIN);
+        self.hi = (start + n as f32 * h).min(LAMBDA_MAX).max(self.lo);
+    }
+
+    /// Installs F (nm⁻¹, row-major n×n; entries with i ≥ o are ignored) and derives σ_se,
+    /// σ_sa and the column CDFs, weighting each cell by its width inside the range.
+    fn set_matrix(&mut self, mut f: Vec<f32>) {
+        let n = self.n;
+        debug_assert_eq!(f.len(), n * n);
+        for i in 0..n {
+            for o in 0..=i {
+                f[i * n + o] = 0.0;
+            }
+        }
+        let w: Vec<f64> = (0..n)
+            .map(|k| {
+                let (a, b) = self.cell_bounds(k);
+                f64::from(b - a)
+            })
+            .collect();
+        let mut sigma_sa = vec![0.0f32; n];
+        for i in 0..n {
+            let s: f64 = (i + 1..n).map(|o| f64::from(f[i * n + o]) * w[o]).sum();
+            sigma_sa[i] = s as f32;
+        }
+        let mut sigma_se = vec![0.0f32; n];
+        let mut cdf = vec![0.0f32; n * n];
+        for o in 0..n {
+            let weights: Vec<f64> = (0..o).map(|i| f64::from(f[i * n + o]) * w[i]).collect();
+            let total: f64 = weights.iter().sum();
+            if !(total > 0.0 && w[o] > 0.0) {
+                continue;
+            }
+            sigma_se[o] = total as f32;
+            let last = weights.iter().rposition(|&x| x > 0.0).unwrap_or(0);
+            let mut acc = 0.0f64;
+            for (i, &x) in weights.iter().enumerate() {
+                acc += x;
+                cdf[o * n + i] = if i >= last { 1.0 } else { (acc / total) as f32 };
+            }
+        }
+        self.fluorescent = sigma_se.iter().any(|&s| s > 0.0);
+        self.f = f;
+        self.sigma_se = sigma_se;
+        self.sigma_sa = sigma_sa;
+        self.cdf = cdf;
+    }
+
+    /// The index of the cell holding λ, if F may be non-zero there (inside the grid and the
+    /// renderer's range).
+    #[inline]
+    pub fn cell(&self, lambda: f32) -> Option<usize> {
+        if !(lambda >= self.lo && lambda < self.hi) {
+            return None;
+        }
+        let k = ((lambda - self.start) * self.inv_cell) as usize;
+        Some(k.min(self.n - 1))
+    }
+
+    /// The diagonal spectrum as given (before clamping negative values to 0).
+    pub fn diagonal(&self) -> &Spectrum {
+        &self.diagonal
+    }
+
+    /// Number of grid cells (0 for [`Self::diagonal_only`]).
+    pub fn cells(&self) -> usize {
+        self.n
+    }
+
+    /// Cell width h (nm).
+    pub fn cell_nm(&self) -> f32 {
+        self.cell_nm
+    }
+
+    /// Nominal centre of cell `k` (nm): the wavelength a CSV file gives for it.
+    pub fn cell_centre(&self, k: usize) -> f32 {
+        self.start + (k as f32 + 0.5) * self.cell_nm
+    }
+
+    /// Cell `k` clipped to the renderer's range, `[a, b)` in nm (empty when the cell lies
+    /// outside it). F is constant over it (the edges are exact up to f32 rounding, where
+    /// the cell lookup of [`Self::f`] decides).
+    pub fn cell_bounds(&self, k: usize) -> (f32, f32) {
+        let a = (self.start + k as f32 * self.cell_nm).clamp(self.lo, self.hi);
+        let b = if k + 1 == self.n {
+            self.hi
+        } else {
+            (self.start + (k + 1) as f32 * self.cell_nm).clamp(self.lo, self.hi)
+        };
+        (a, b)
+    }
+
+    /// The diagonal D(λ) (ordinary reflectance), clamped to be non-negative.
+    #[inline]
+    pub fn d(&self, lambda: f32) -> f32 {
+        nonneg(self.diagonal.eval(lambda))
+    }
+
+    /// D at the four lanes.
+    #[inline]
+    pub fn d4(&self, lambda: Vec4) -> Vec4 {
+        Vec4::from_array(self.diagonal.eval4(lambda).to_array().map(nonneg))
+    }
+
+    /// The off-diagonal density F(λi, λo) in nm⁻¹ (0 unless cell(λi) < cell(λo)).
+    #[inline]
+    pub fn f(&self, lambda_i: f32, lambda_o: f32) -> f32 {
+        match (self.cell(lambda_i), self.cell(lambda_o)) {
+            (Some(i), Some(o)) => self.f[i * self.n + o],
+            _ => 0.0,
+        }
+    }
+
+    /// In-shifting σ_se(λo) = ∫ F(λi, λo) dλi.
+    #[inline]
+    pub fn sigma_se(&self, lambda_o: f32) -> f32 {
+        self.cell(lambda_o).map_or(0.0, |o| self.sigma_se[o])
+    }
+
+    /// Out-shifting σ_sa(λi) = ∫ F(λi, λo) dλo.
+    #[inline]
+    pub fn sigma_sa(&self, lambda_i: f32) -> f32 {
+        self.cell(lambda_i).map_or(0.0, |i| self.sigma_sa[i])
+    }
+
+    /// Whether any light is shifted inside the renderer's range (some F > 0).
+    pub fn is_fluorescent(&self) -> bool {
+        self.fluorescent
+    }
+
+    /// The cells whose total re-radiation D + σ_sa exceeds 1 (an energy gain), as
+    /// (nominal cell centre in nm, total). D is taken at the centre and σ_sa over the whole
+    /// cell row (not clipped to the range), so for a measured matrix the total is the
+    /// file's row sum. Empty for [`Self::diagonal_only`], which has no cells.
+    pub fn energy_gain_rows(&self) -> Vec<(f32, f32)> {
+        let n = self.n;
+        (0..n)
+            .filter_map(|i| {
+                let c = self.cell_centre(i);
+                let out: f64 = (i + 1..n).map(|o| f64::from(self.f[i * n + o])).sum::<f64>()
+                    * f64::from(self.cell_nm);
+                let total = (f64::from(self.d(c)) + out) as f32;
+                (total > 1.0 + 1e-5).then_some((c, total))
+            })
+            .collect()
+    }
+
+    /// Shift sampling on a camera path at output wavelength `lambda_o`: keep it with
+    /// probability D/(D+σ_se) (`u_choice` below that), else draw λi ∝ F(·, λo): a cell from
+    /// the column's CDF with `u_lambda`, and the position inside the (clipped) cell from
+    /// what is left of `u_lambda`. `None` when D + σ_se = 0: the lane cannot continue.
+    #[inline]
+    pub fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<ShiftSample> {
+        let d = self.d(lambda_o);
+        let column = self.cell(lambda_o);
+        let sse = column.map_or(0.0, |o| self.sigma_se[o]);
+        let total = d + sse;
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let p_keep = d / total;
+        let o = match column {
+            Some(o) if u_choice >= p_keep && sse > 0.0 => o,
+            _ => {
+                return Some(ShiftSample {
+                    lambda_i: lambda_o,
+                    kept: true,
+                    pdf: p_keep,
+                    value: d,
+                })
+            }
+        };
+        let n = self.n;
+        let cdf = &self.cdf[o * n..o * n + o];
+        let u = u_lambda.clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        // The first cell whose CDF exceeds u: never one of zero weight.
+        let i = cdf.partition_point(|&c| c <= u).min(o - 1);
+        let below = if i == 0 { 0.0 } else { cdf[i - 1] };
+        let frac = ((u - below) / (cdf[i] - below)).clamp(0.0, 1.0);
+        let (a, b) = self.cell_bounds(i);
+        let mut lambda_i = (a + frac * (b - a)).clamp(a, b);
+        // Rounding may put λi on a neighbouring cell's side of the edge: step back inside,
+        // so that f and pdf_input at λi agree with this sample.
+        for _ in 0..8 {
+            match self.cell(lambda_i) {
+                Some(k) if k == i => break,
+                Some(k) if k < i => lambda_i = lambda_i.next_up(),
+                _ => lambda_i = lambda_i.next_down(),
+            }
+        }
+        let value = self.f[i * n + o];
+        Some(ShiftSample {
+            lambda_i,
+            kept: false,
+            pdf: value / total,
+            value,
+        })
+    }
+
+    /// The pdf with which [`Self::sample_input`]`(lambda_o, ..)` produces this event: for a
+    /// kept wavelength (`lambda_i` is then ignored) the discrete probability D/(D+σ_se);
+    /// for a shift to `lambda_i` the density F(λi, λo)/(D+σ_se) in nm⁻¹. 0 when D+σ_se = 0.
+    #[inline]
+    pub fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        let d = self.d(lambda_o);
+        let total = d + self.sigma_se(lambda_o);
+        if !(total > 0.0 && total.is_finite()) {
+            return 0.0;
+        }
+        if kept {
+            d / total
+        } else {
+            self.f(lambda_i, lambda_o) / total
+        }
+    }
+
+    /// M for the event: D(λo) if kept (`lambda_i` ignored), F(λi, λo) if shifted.
+    #[inline]
+    pub fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        if kept {
+            self.d(lambda_o)
+        } else {
+            self.f(lambda_i, lambda_o)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spectrum::Tabulated;
+
+    fn assert_traits<T: Send + Sync + Clone + std::fmt::Debug>() {}
+
+    #[test]
+    fn types_are_send_sync_clone_debug() {
+        assert_traits::<Reradiation>();
+        assert_traits::<ShiftSample>();
+        assert_traits::<ImportReport>();
+    }
+
+    /// A 3-cell matrix whose grid sticks out of the range on both sides.
+    fn clipped() -> Reradiation {
+        let mut r = Reradiation::diagonal_only(Spectrum::Constant(0.5));
+        // Cells [200, 400), [400, 600), [600, 800)... with h = 200 from 200: the first cell
+        // is clipped to [360, 400).
+        r.set_grid(200.0, 200.0, 4);
+        let n = 4;
+        let mut f = vec![0.0; n * n];
+        f[1] = 0.001; // (0, 1)
+        f[n + 3] = 0.002; // (1, 3): cell 3 is [800, 1000) -> [800, 830)
+        f[2 * n] = 0.5; // below the diagonal: ignored
+        r.set_matrix(f);
+        r
+    }
+
+    #[test]
+    fn cells_are_clipped_to_the_range() {
+        let r = clipped();
+        assert_eq!(r.cell_bounds(0), (360.0, 400.0));
+        assert_eq!(r.cell_bounds(1), (400.0, 600.0));
+        assert_eq!(r.cell_bounds(3), (800.0, 830.0));
+        assert_eq!(r.cell(359.9), None);
+        assert_eq!(r.cell(360.0), Some(0));
+        assert_eq!(r.cell(399.99), Some(0));
+        assert_eq!(r.cell(400.0), Some(1));
+        assert_eq!(r.cell(830.0), None);
+        assert_eq!(r.cell(f32::NAN), None);
+        // σ_se of cell 1 = 0.001 · 40 nm (clipped width of cell 0), not · 200 nm.
+        assert!((r.sigma_se(500.0) - 0.04).abs() < 1e-6);
+        assert!((r.sigma_sa(500.0) - 0.002 * 30.0).abs() < 1e-6);
+        assert_eq!(r.f(650.0, 700.0), 0.0); // the ignored anti-Stokes entry is gone
+        assert_eq!(r.f(300.0, 500.0), 0.0); // outside the range
+        // Energy rows use the unclipped row: 0.5 + 0.001·200 for the cell centred at 300.
+        assert!(r.energy_gain_rows().is_empty());
+    }
+
+    #[test]
+    fn sampled_wavelengths_stay_in_their_clipped_cell() {
+        let r = clipped();
+        let mut rng = crate::sampler::Pcg32::new(5, 9);
+        for _ in 0..20_000 {
+            let s = r
+                .sample_input(815.0, rng.next_f32(), rng.next_f32())
+                .unwrap();
+            if !s.kept {
+                assert!((400.0..600.0).contains(&s.lambda_i), "{s:?}");
+            }
+            let s = r
+                .sample_input(450.0, rng.next_f32(), rng.next_f32())
+                .unwrap();
+            if !s.kept {
+                assert!((360.0..400.0).contains(&s.lambda_i), "{s:?}");
+            }
+        }
+        // Extreme random numbers still give a sample inside the cell.
+        for u in [0.0, 1.0 - f32::EPSILON, 1.0, 2.0, -1.0] {
+            let s = r.sample_input(450.0, 0.99999, u).unwrap();
+            assert!(!s.kept && (360.0..400.0).contains(&s.lambda_i), "{u}: {s:?}");
+            assert_eq!(r.cell(s.lambda_i), Some(0));
+        }
+    }
+
+    #[test]
+    fn cell_edges_are_consistent_between_sampling_and_lookup() {
+        // A grid whose edges are not exactly representable.
+        let mut r = Reradiation::diagonal_only(Spectrum::Constant(0.0));
+        let n = 150;
+        r.set_grid(LAMBDA_MIN, LAMBDA_RANGE / n as f32, n);
+        let mut f = vec![0.0; n * n];
+        for i in 0..n {
+            for o in i + 1..n {
+                f[i * n + o] = 0.01;
+            }
+        }
+        r.set_matrix(f);
+        for o in 1..n {
+            let (a, b) = r.cell_bounds(o);
+            let lo = 0.5 * (a + b);
+            let total = r.sigma_se(lo);
+            for k in 0..=64 {
+                let u = k as f32 / 64.0;
+                let s = r.sample_input(lo, 0.5, u).unwrap();
+                assert!(!s.kept);
+                let i = r.cell(s.lambda_i).unwrap();
+                assert!(i < o && s.lambda_i < b, "λi {} not below cell {o}", s.lambda_i);
+                assert_eq!(s.value, r.f(s.lambda_i, lo));
+                assert_eq!(s.pdf, r.pdf_input(s.lambda_i, lo, false));
+                assert!((s.value / s.pdf - total).abs() <= 1e-5 * total);
+            }
+        }
+    }
+
+    #[test]
+    fn diagonal_tabulated_spectrum_is_accepted() {
+        let t = Tabulated::new(vec![400.0, 700.0], vec![0.2, 0.8]).unwrap();
+        let r = Reradiation::diagonal_only(Spectrum::Tabulated(t));
+        assert!((r.d(550.0) - 0.5).abs() < 1e-6);
+        assert_eq!(r.d(380.0), 0.0);
+        assert!(r.sample_input(380.0, 0.3, 0.3).is_none());
+    }
+}
