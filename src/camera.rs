@@ -61,6 +61,21 @@ impl Camera {
         }
     }
 
+    /// Film position (pixels) of a world point, or `None` if it is behind the camera.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
+        let d = p - self.position;
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let sx = d.dot(self.right) / self.right.length_squared() / z;
+        let sy = d.dot(self.up) / self.up.length_squared() / z;
+        Some((
+            (sx + 1.0) * 0.5 * self.width as f32,
+            (1.0 - sy) * 0.5 * self.height as f32,
+        ))
+    }
+
     /// The primary ray through film position (x, y) in pixels; the direction is unit.
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> Ray {
@@ -86,5 +101,9 @@ mod tests {
         // Top edge at half the field of view.
         let top = c.ray(50.0, 0.0).dir;
         assert!((top.y.atan2(top.z).to_degrees() - 20.0).abs() < 1e-3);
+        // project() inverts ray().
+        let r = c.ray(20.0, 70.0);
+        let (x, y) = c.project(r.org + r.dir * 3.0).unwrap();
+        assert!((x - 20.0).abs() < 1e-3 && (y - 70.0).abs() < 1e-3, "{x} {y}");
     }
 }

@@ -280,4 +280,31 @@ fn cmd_info(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-fn cmd_bench_rays(_a: &BenchRaysArgs) -> Result<(), String> { Err("pending".into()) }
+fn cmd_bench_rays(a: &BenchRaysArgs) -> Result<(), String> {
+    let scene = load(&a.scene)?;
+    let cam = scene.camera.clone();
+    let lights = &scene.lights;
+    let camera_ray = move |x: f32, y: f32| cam.ray(x, y);
+    let light_point = |u: [f32; 3]| lights.sample(u).map(|s| s.p).unwrap_or(glam::Vec3::ZERO);
+    let input = stokes::bench_rays::RayBenchInput {
+        name: scene.name(),
+        accel: &scene.accel,
+        width: scene.camera.width,
+        height: scene.camera.height,
+        camera_ray: &camera_ray,
+        light_point: &light_point,
+        bounds: scene.bounds,
+    };
+    let opts = stokes::bench_rays::RayBenchOptions {
+        seconds: a.seconds,
+        threads: a.threads,
+        repetitions: a.repetitions.max(1),
+    };
+    let report = stokes::bench_rays::bench_rays(&input, &opts);
+    if a.json {
+        println!("{}", serde_json::to_string(&report).map_err(|e| e.to_string())?);
+    } else {
+        print!("{}", stokes::bench_rays::format_table(&report));
+    }
+    Ok(())
+}
