@@ -34,7 +34,12 @@ fn from_prefix(prefix: &Path) -> Option<Found> {
         let header = prefix.join(format!("include/embree{major}/rtcore.h"));
         if header.is_file() {
             let mut link_dirs = vec![];
-            for sub in ["lib", "lib64", "lib/x86_64-linux-gnu", "lib/aarch64-linux-gnu"] {
+            for sub in [
+                "lib",
+                "lib64",
+                "lib/x86_64-linux-gnu",
+                "lib/aarch64-linux-gnu",
+            ] {
                 let d = prefix.join(sub);
                 if d.is_dir() {
                     link_dirs.push(d);
@@ -75,7 +80,9 @@ fn main() {
         found = prefixes.iter().find_map(|p| from_prefix(p));
     }
     let Some(found) = found else {
-        fail(&format!("embree-sys: no Embree 3 or 4 headers were found; {INSTALL_HINT}."));
+        fail(&format!(
+            "embree-sys: no Embree 3 or 4 headers were found; {INSTALL_HINT}."
+        ));
     };
 
     for dir in &found.link_dirs {
@@ -103,7 +110,8 @@ fn main() {
 
     // bindgen panics (inside clang-sys) when libclang cannot be loaded: turn that into
     // the same one-sentence hint as a missing Embree.
-    let generated = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || builder.generate()));
+    let generated =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || builder.generate()));
     let bindings = match generated {
         Ok(Ok(b)) => b,
         Ok(Err(e)) => fail(&format!(

@@ -21,7 +21,14 @@ pub struct Camera {
 
 impl Camera {
     /// A camera; `fov_deg` is the vertical field of view. Errors say what is degenerate.
-    pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Result<Camera, String> {
+    pub fn new(
+        position: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+        fov_deg: f32,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, String> {
         let forward = (look_at - position).normalize_or_zero();
         if forward == Vec3::ZERO {
             return Err("camera.look_at: must differ from camera.position".into());
@@ -31,10 +38,14 @@ impl Camera {
             return Err("camera.up: must not be parallel to the viewing direction".into());
         }
         if !(fov_deg > 0.0 && fov_deg < 180.0) {
-            return Err(format!("camera.fov: expected degrees in (0, 180), found {fov_deg}"));
+            return Err(format!(
+                "camera.fov: expected degrees in (0, 180), found {fov_deg}"
+            ));
         }
         if width == 0 || height == 0 {
-            return Err(format!("camera.resolution: expected positive sizes, found [{width}, {height}]"));
+            return Err(format!(
+                "camera.resolution: expected positive sizes, found [{width}, {height}]"
+            ));
         }
         let tan_half = (fov_deg.to_radians() * 0.5).tan();
         let aspect = width as f32 / height as f32;
@@ -92,7 +103,15 @@ mod tests {
 
     #[test]
     fn centre_ray_looks_at_target_and_right_is_right() {
-        let c = Camera::new(Vec3::new(0.0, 0.0, -5.0), Vec3::ZERO, Vec3::Y, 40.0, 100, 100).unwrap();
+        let c = Camera::new(
+            Vec3::new(0.0, 0.0, -5.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            40.0,
+            100,
+            100,
+        )
+        .unwrap();
         let r = c.ray(50.0, 50.0);
         assert!((r.dir - Vec3::Z).length() < 1e-6);
         // Looking along +z with +y up, image right is −x (right-handed coordinates).
@@ -104,6 +123,9 @@ mod tests {
         // project() inverts ray().
         let r = c.ray(20.0, 70.0);
         let (x, y) = c.project(r.org + r.dir * 3.0).unwrap();
-        assert!((x - 20.0).abs() < 1e-3 && (y - 70.0).abs() < 1e-3, "{x} {y}");
+        assert!(
+            (x - 20.0).abs() < 1e-3 && (y - 70.0).abs() < 1e-3,
+            "{x} {y}"
+        );
     }
 }

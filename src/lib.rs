@@ -6,14 +6,14 @@
 #![deny(unsafe_code)]
 
 pub mod accel;
-pub mod color;
-pub mod spectrum;
 pub mod bench_rays;
 pub mod bsdf;
 pub mod camera;
+pub mod color;
+pub mod fluoro;
 pub mod integrator;
 pub mod light;
 pub mod output;
 pub mod sampler;
 pub mod scene;
-pub mod fluoro;
+pub mod spectrum;

@@ -101,7 +101,13 @@ pub struct Lights {
 
 impl Lights {
     /// Adds an emitter with its triangles; `geom_id` is the Embree id of the mesh.
-    pub fn add(&mut self, geom_id: u32, emitter: Emitter, positions: &[[f32; 3]], indices: &[[u32; 3]]) {
+    pub fn add(
+        &mut self,
+        geom_id: u32,
+        emitter: Emitter,
+        positions: &[[f32; 3]],
+        indices: &[[u32; 3]],
+    ) {
         let e = self.emitters.len() as u32;
         self.emitters.push(emitter);
         let g = geom_id as usize;
@@ -163,7 +169,10 @@ impl Lights {
         if self.triangles.is_empty() {
             return None;
         }
-        let i = self.cdf.partition_point(|&c| c <= u[0]).min(self.triangles.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u[0])
+            .min(self.triangles.len() - 1);
         let t = &self.triangles[i];
         if self.pmf[i] <= 0.0 || t.area <= 0.0 {
             return None;

@@ -9,7 +9,11 @@ use stokes::integrator::{Shifting, Spectral};
 use stokes::scene::Scene;
 
 #[derive(Parser)]
-#[command(name = "stokes", version, about = "A spectral path tracer that renders fluorescence correctly and fast")]
+#[command(
+    name = "stokes",
+    version,
+    about = "A spectral path tracer that renders fluorescence correctly and fast"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -98,8 +102,14 @@ fn parse_res(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("expected WxH such as 512x512, found {s:?}"))?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("expected a width in {s:?}"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("expected a height in {s:?}"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a width in {s:?}"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a height in {s:?}"))?;
     if w == 0 || h == 0 || w > 32768 || h > 32768 {
         return Err(format!("expected sizes in 1..=32768, found {s:?}"));
     }
@@ -111,7 +121,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => cmd_render(&a),
         Command::Info { scene } => cmd_info(&scene),
-        Command::Bench { what: BenchCommand::Rays(a) } => cmd_bench_rays(&a),
+        Command::Bench {
+            what: BenchCommand::Rays(a),
+        } => cmd_bench_rays(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -124,7 +136,10 @@ fn main() -> ExitCode {
 
 /// `<output>.variance.exr` beside `<output>.exr`.
 fn sibling(path: &Path, suffix: &str) -> PathBuf {
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     path.with_file_name(format!("{stem}{suffix}"))
 }
 
@@ -154,7 +169,10 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         return Err("--spp: expected at least 1".into());
     }
     if opts.max_depth == 0 || opts.max_depth < -1 {
-        return Err(format!("--max-depth: expected −1 or a depth ≥ 1, found {}", opts.max_depth));
+        return Err(format!(
+            "--max-depth: expected −1 or a depth ≥ 1, found {}",
+            opts.max_depth
+        ));
     }
     let out = a
         .output
@@ -164,9 +182,11 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
     let bar = if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(height as u64);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {pos}/{len} rows, eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            indicatif::ProgressStyle::with_template(
+                "{spinner} {elapsed_precise} [{bar:40}] {pos}/{len} rows, eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
         );
         Some(b)
     } else {
@@ -190,7 +210,10 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         ("spectral".to_string(), opts.spectral.name().to_string()),
         ("shifting".to_string(), opts.shifting.name().to_string()),
         ("max_depth".to_string(), opts.max_depth.to_string()),
-        ("render_seconds".to_string(), format!("{:.3}", result.seconds)),
+        (
+            "render_seconds".to_string(),
+            format!("{:.3}", result.seconds),
+        ),
     ];
     let film = &result.film;
     stokes::output::write_exr(&out, width, height, &film.mean(), &meta)?;
@@ -198,7 +221,13 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         stokes::output::write_png(&out.with_extension("png"), width, height, &film.mean())?;
     }
     if a.variance {
-        stokes::output::write_exr(&sibling(&out, ".variance.exr"), width, height, &film.variance_of_mean(), &meta)?;
+        stokes::output::write_exr(
+            &sibling(&out, ".variance.exr"),
+            width,
+            height,
+            &film.variance_of_mean(),
+            &meta,
+        )?;
     }
     if result.stats.nonfinite > 0 {
         eprintln!(
@@ -244,15 +273,26 @@ fn cmd_info(path: &Path) -> Result<(), String> {
     println!("scene       {}", path.display());
     println!(
         "camera      {}x{}, render defaults: {} spp, max depth {}, seed {}",
-        scene.camera.width, scene.camera.height, scene.render.spp, scene.render.max_depth, scene.render.seed
+        scene.camera.width,
+        scene.camera.height,
+        scene.render.spp,
+        scene.render.max_depth,
+        scene.render.seed
     );
-    println!("geometry    {} meshes, {} triangles", scene.geometries.len(), scene.triangle_count());
+    println!(
+        "geometry    {} meshes, {} triangles",
+        scene.geometries.len(),
+        scene.triangle_count()
+    );
     for g in &scene.geometries {
         let m = g
             .material
             .map(|m| scene.material_names[m as usize].as_str())
             .unwrap_or("(none)");
-        println!("  {:<40} {:>8} triangles  material {m}", g.name, g.triangles);
+        println!(
+            "  {:<40} {:>8} triangles  material {m}",
+            g.name, g.triangles
+        );
     }
     println!(
         "lights      {} emitters, {} emissive triangles",
@@ -302,7 +342,10 @@ fn cmd_bench_rays(a: &BenchRaysArgs) -> Result<(), String> {
     };
     let report = stokes::bench_rays::bench_rays(&input, &opts);
     if a.json {
-        println!("{}", serde_json::to_string(&report).map_err(|e| e.to_string())?);
+        println!(
+            "{}",
+            serde_json::to_string(&report).map_err(|e| e.to_string())?
+        );
     } else {
         print!("{}", stokes::bench_rays::format_table(&report));
     }

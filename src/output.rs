@@ -32,7 +32,10 @@ pub fn write_atomically(
     match write(&tmp) {
         Ok(()) => std::fs::rename(&tmp, target).map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
-            format!("{}: cannot move the finished image into place: {e}", target.display())
+            format!(
+                "{}: cannot move the finished image into place: {e}",
+                target.display()
+            )
         }),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
@@ -60,9 +63,17 @@ pub fn write_exr(
     let mut attrs = LayerAttributes::named("");
     attrs.software_name = Some(Text::from("stokes"));
     for (k, v) in metadata {
-        attrs.other.insert(Text::from(format!("stokes:{k}").as_str()), AttributeValue::Text(Text::from(v.as_str())));
+        attrs.other.insert(
+            Text::from(format!("stokes:{k}").as_str()),
+            AttributeValue::Text(Text::from(v.as_str())),
+        );
     }
-    let layer = Layer::new((w, height as usize), attrs, Encoding::SMALL_LOSSLESS, channels);
+    let layer = Layer::new(
+        (w, height as usize),
+        attrs,
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
     let image = Image::from_layer(layer);
     write_atomically(path, |tmp| {
         image
@@ -72,9 +83,12 @@ pub fn write_exr(
     })
 }
 
+/// An image read back: width, height, RGB pixels and `stokes:*` header attributes.
+pub type ExrImage = (u32, u32, Vec<[f32; 3]>, Vec<(String, String)>);
+
 /// Reads the RGB channels and the `stokes:*` text attributes of an EXR written by
 /// [`write_exr`] (or any RGB(A) EXR).
-pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>, Vec<(String, String)>), String> {
+pub fn read_exr(path: &Path) -> Result<ExrImage, String> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
@@ -114,7 +128,9 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        let mut w = enc.write_header().map_err(|e| format!("cannot write PNG: {e}"))?;
+        let mut w = enc
+            .write_header()
+            .map_err(|e| format!("cannot write PNG: {e}"))?;
         w.write_image_data(&bytes)
             .map_err(|e| format!("cannot write PNG: {e}"))?;
         w.finish().map_err(|e| format!("cannot write PNG: {e}"))
@@ -137,7 +153,10 @@ mod tests {
         });
         assert!(r.is_err());
         assert_eq!(std::fs::read(&target).unwrap(), b"old");
-        assert!(std::fs::read_dir(&dir).unwrap().count() == 1, "temporary file left behind");
+        assert!(
+            std::fs::read_dir(&dir).unwrap().count() == 1,
+            "temporary file left behind"
+        );
     }
 
     #[test]

@@ -36,7 +36,11 @@ fn patch_pixels(i: usize) -> Vec<usize> {
 #[test]
 fn rendered_patches_match_their_spectra_under_d65() {
     let csv = root().join("scenes/data/colorchecker/colorchecker_n_ohta.csv");
-    let names: Vec<String> = stokes::spectrum::read_csv(&csv).unwrap().into_iter().map(|c| c.0).collect();
+    let names: Vec<String> = stokes::spectrum::read_csv(&csv)
+        .unwrap()
+        .into_iter()
+        .map(|c| c.0)
+        .collect();
     assert_eq!(names.len(), 24);
     let d65 = Spectrum::Scaled(Box::new(illuminant("D65").unwrap()), 0.01);
     let white = spectrum_to_xyz(&d65);
@@ -57,7 +61,10 @@ fn rendered_patches_match_their_spectra_under_d65() {
             if de > worst.0 {
                 worst = (de, name.clone());
             }
-            assert!(de <= 1.0, "{spectral:?}: patch {i} ({name}): ΔE2000 = {de:.3}");
+            assert!(
+                de <= 1.0,
+                "{spectral:?}: patch {i} ({name}): ΔE2000 = {de:.3}"
+            );
         }
         eprintln!("{spectral:?}: worst ΔE2000 = {:.3} ({})", worst.0, worst.1);
     }

@@ -13,7 +13,14 @@ use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 use stokes::spectrum::{illuminant, Spectrum};
 
-fn render_with(scene: &mut Scene, res: u32, spp: u32, seed: u64, spectral: Spectral, shifting: Shifting) -> stokes::integrator::render::Film {
+fn render_with(
+    scene: &mut Scene,
+    res: u32,
+    spp: u32,
+    seed: u64,
+    spectral: Spectral,
+    shifting: Shifting,
+) -> stokes::integrator::render::Film {
     scene.set_resolution(res, res);
     let opts = RenderOptions {
         width: res,
@@ -35,8 +42,14 @@ fn render_with(scene: &mut Scene, res: u32, spp: u32, seed: u64, spectral: Spect
 fn rect_pixels(scene: &Scene, x: (f32, f32), y: (f32, f32), z: f32, keep: f32) -> Vec<usize> {
     let (cx, cy) = ((x.0 + x.1) / 2.0, (y.0 + y.1) / 2.0);
     let (hx, hy) = ((x.1 - x.0) / 2.0 * keep, (y.1 - y.0) / 2.0 * keep);
-    let a = scene.camera.project(Vec3::new(cx - hx, cy - hy, z)).unwrap();
-    let b = scene.camera.project(Vec3::new(cx + hx, cy + hy, z)).unwrap();
+    let a = scene
+        .camera
+        .project(Vec3::new(cx - hx, cy - hy, z))
+        .unwrap();
+    let b = scene
+        .camera
+        .project(Vec3::new(cx + hx, cy + hy, z))
+        .unwrap();
     let (x0, x1) = (a.0.min(b.0), a.0.max(b.0));
     let (y0, y1) = (a.1.min(b.1), a.1.max(b.1));
     let w = scene.camera.width;
@@ -59,13 +72,22 @@ fn regions(scene: &Scene) -> Vec<(&'static str, Vec<usize>)> {
     let mut r = vec![];
     for (c, name) in ["highlighter", "orange", "pink"].into_iter().enumerate() {
         let x_hi = 278.0 + 180.0 - c as f32 * 130.0;
-        r.push((name, rect_pixels(scene, (x_hi - 100.0, x_hi), (90.0, 190.0), z, 0.6)));
+        r.push((
+            name,
+            rect_pixels(scene, (x_hi - 100.0, x_hi), (90.0, 190.0), z, 0.6),
+        ));
     }
     // Chart patch 19 (white 9.5): row 3, column 0.
     let x_hi = 278.0 + 174.0;
     let y_hi = 500.0 - 3.0 * 58.0;
-    r.push(("chart white", rect_pixels(scene, (x_hi - 50.0, x_hi), (y_hi - 50.0, y_hi), z, 0.7)));
-    r.push(("back wall", rect_pixels(scene, (60.0, 500.0), (20.0, 70.0), 559.0, 0.9)));
+    r.push((
+        "chart white",
+        rect_pixels(scene, (x_hi - 50.0, x_hi), (y_hi - 50.0, y_hi), z, 0.7),
+    ));
+    r.push((
+        "back wall",
+        rect_pixels(scene, (60.0, 500.0), (20.0, 70.0), 559.0, 0.9),
+    ));
     for (name, px) in &r {
         assert!(px.len() >= 12, "region {name} has {} pixels", px.len());
     }
@@ -78,15 +100,43 @@ fn methods_agree(file: &str) {
     scene.set_resolution(res, res);
     let regs = regions(&scene);
     let runs = [
-        ("independent", render_with(&mut scene, res, 256, 1, Spectral::Hwss, Shifting::Independent)),
-        ("constant", render_with(&mut scene, res, 256, 2, Spectral::Hwss, Shifting::Constant)),
-        ("mono", render_with(&mut scene, res, 1024, 3, Spectral::Mono, Shifting::Independent)),
+        (
+            "independent",
+            render_with(
+                &mut scene,
+                res,
+                256,
+                1,
+                Spectral::Hwss,
+                Shifting::Independent,
+            ),
+        ),
+        (
+            "constant",
+            render_with(&mut scene, res, 256, 2, Spectral::Hwss, Shifting::Constant),
+        ),
+        (
+            "mono",
+            render_with(
+                &mut scene,
+                res,
+                1024,
+                3,
+                Spectral::Mono,
+                Shifting::Independent,
+            ),
+        ),
     ];
     for (name, px) in &regs {
         let means: Vec<_> = runs.iter().map(|(m, f)| (*m, region_mean(f, px))).collect();
         for i in 0..means.len() {
             for j in i + 1..means.len() {
-                assert_agree(&format!("{file}: {name}: {} vs {}", means[i].0, means[j].0), means[i].1, means[j].1, 4.0);
+                assert_agree(
+                    &format!("{file}: {name}: {} vs {}", means[i].0, means[j].0),
+                    means[i].1,
+                    means[j].1,
+                    4.0,
+                );
             }
         }
     }
@@ -109,7 +159,10 @@ fn narrow_band_light_gives_no_nan_or_inf() {
         let mut scene = scene_file("fluorescent-surfaces-440nm.toml");
         let film = render_with(&mut scene, 48, 16, 9, Spectral::Hwss, shifting);
         assert!(film.mean().iter().all(|p| p.iter().all(|v| v.is_finite())));
-        assert!(film.variance_of_mean().iter().all(|p| p.iter().all(|v| v.is_finite())));
+        assert!(film
+            .variance_of_mean()
+            .iter()
+            .all(|p| p.iter().all(|v| v.is_finite())));
     }
 }
 
@@ -172,7 +225,17 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
         for i in 0..n {
             let mut rng = Pcg32::for_sample(3, lambda_o as u64, i);
             let mut shift = LazyStream::new(3, lambda_o as u64, i);
-            let l = radiance(&scene, ray, glam::Vec4::splat(lambda_o), Spectral::Mono, Shifting::Independent, -1, &mut rng, &mut shift, &mut stats);
+            let l = radiance(
+                &scene,
+                ray,
+                glam::Vec4::splat(lambda_o),
+                Spectral::Mono,
+                Shifting::Independent,
+                -1,
+                &mut rng,
+                &mut shift,
+                &mut stats,
+            );
             let v = l.x as f64;
             sum += v;
             sq += v * v;
@@ -181,14 +244,20 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
         let se = ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt();
         let z = (mean - want) / se.max(1e-12);
         eprintln!("λo = {lambda_o}: {mean:.5} ± {se:.5}, closed form {want:.5}, z = {z:.2}");
-        assert!(z.abs() < 4.0, "λo = {lambda_o}: {mean} vs {want} (z = {z:.2})");
+        assert!(
+            z.abs() < 4.0,
+            "λo = {lambda_o}: {mean} vs {want} (z = {z:.2})"
+        );
         // The fluorescent part matters here, so the test can tell it apart from D·L alone.
         if (505.0..=560.0).contains(&lambda_o) {
             let rr_only = match &scene.materials[0] {
                 Material::FluorescentDiffuse { reradiation } => reradiation.d(lambda_o) as f64,
                 _ => unreachable!(),
             } * (0.01 * illuminant("D65").unwrap().eval(lambda_o)) as f64;
-            assert!((mean - rr_only).abs() > 6.0 * se, "λo = {lambda_o}: no fluorescence seen");
+            assert!(
+                (mean - rr_only).abs() > 6.0 * se,
+                "λo = {lambda_o}: no fluorescence seen"
+            );
         }
     }
 }
@@ -211,13 +280,156 @@ fn fluorescent_plane_colour_matches_the_closed_form_in_every_mode() {
         (Spectral::Mono, Shifting::Independent, 4096),
     ] {
         let film = render_with(&mut scene, 16, spp, 21, spectral, shifting);
-        let centre: Vec<usize> = (0..256usize).filter(|i| (i % 16).abs_diff(8) < 4 && (i / 16).abs_diff(8) < 4).collect();
+        let centre: Vec<usize> = (0..256usize)
+            .filter(|i| (i % 16).abs_diff(8) < 4 && (i / 16).abs_diff(8) < 4)
+            .collect();
         let got = region_mean(&film, &centre);
         assert_agree(
             &format!("plane {spectral:?} {shifting:?}"),
             got,
             (want.to_array().map(|v| v as f64), [0.0; 3]),
             4.0,
+        );
+    }
+}
+
+/// A sphere under a quad light in a white box; `sphere_material` is inserted verbatim.
+fn sphere_scene(sphere_material: &str) -> String {
+    format!(
+        r#"
+[camera]
+position = [0, 1, -3]
+look_at = [0, 1, 0]
+fov = 45
+resolution = [32, 32]
+
+[materials.white]
+type = "diffuse"
+reflectance = 0.7
+
+[materials.sphere]
+{sphere_material}
+
+[[shapes]]
+type = "box"
+min = [-2, 0, -4]
+max = [2, 3, 2]
+material = "white"
+
+[[shapes]]
+type = "sphere"
+center = [0, 1, 0]
+radius = 0.8
+stacks = 24
+material = "sphere"
+
+[[shapes]]
+type = "quad"
+origin = [-0.5, 2.99, -0.5]
+edge_u = [1, 0, 0]
+edge_v = [0, 0, 1]
+emission = {{ radiance = "D65", scale = 0.1 }}
+"#
+    )
+}
+
+#[test]
+fn a_diagonal_only_matrix_renders_like_plain_diffuse() {
+    // A measured-format matrix with only its diagonal, against the plain diffuse material
+    // with the same reflectance (cell centres, held constant to the outer cell edges).
+    let dir = scratch("diagonal");
+    let centres: Vec<f32> = (0..47).map(|k| 365.0 + 10.0 * k as f32).collect();
+    let diag: Vec<f32> = centres
+        .iter()
+        .map(|l| 0.2 + 0.6 * ((l - 360.0) / 470.0))
+        .collect();
+    let mut csv = String::from("nm");
+    for c in &centres {
+        csv += &format!(",{c}");
+    }
+    csv += "\n";
+    for (i, c) in centres.iter().enumerate() {
+        csv += &format!("{c}");
+        for j in 0..centres.len() {
+            csv += &format!(",{}", if i == j { diag[i] } else { 0.0 });
+        }
+        csv += "\n";
+    }
+    let csv_path = dir.join("diag.csv");
+    std::fs::write(&csv_path, csv).unwrap();
+    let mut w = vec![360.0];
+    w.extend(&centres);
+    w.push(830.0);
+    let mut v = vec![diag[0]];
+    v.extend(&diag);
+    v.push(*diag.last().unwrap());
+    let fmt = |x: &[f32]| {
+        x.iter()
+            .map(|a| a.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let plain = format!(
+        "type = \"diffuse\"\nreflectance = {{ wavelengths = [{}], values = [{}] }}",
+        fmt(&w),
+        fmt(&v)
+    );
+    let fluo = format!(
+        "type = \"fluorescent_diffuse\"\nmatrix = \"{}\"",
+        csv_path.display()
+    );
+    let dyed = "type = \"fluorescent_diffuse\"\nreflectance = 0.3\ndye = { absorption = 0.5, emission = { narrow_band = 600, fwhm = 40 }, quantum_yield = 0.8 }";
+    for (spectral, shifting) in [
+        (Spectral::Hwss, Shifting::Independent),
+        (Spectral::Hwss, Shifting::Constant),
+        (Spectral::Mono, Shifting::Independent),
+    ] {
+        let a = render_with(
+            &mut scene_from(&sphere_scene(&plain)),
+            32,
+            8,
+            5,
+            spectral,
+            shifting,
+        )
+        .mean();
+        let b = render_with(
+            &mut scene_from(&sphere_scene(&fluo)),
+            32,
+            8,
+            5,
+            spectral,
+            shifting,
+        )
+        .mean();
+        let worst = a
+            .iter()
+            .zip(&b)
+            .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / p[c].abs().max(1e-3)))
+            .fold(0.0f32, f32::max);
+        // Same random numbers, same arithmetic up to the order of float multiplications.
+        assert!(
+            worst < 1e-4,
+            "{spectral:?} {shifting:?}: largest relative pixel difference {worst}"
+        );
+        // And the comparison can fail: a real dye changes the image.
+        let c = render_with(
+            &mut scene_from(&sphere_scene(dyed)),
+            32,
+            8,
+            5,
+            spectral,
+            shifting,
+        )
+        .mean();
+        let diff = a
+            .iter()
+            .zip(&c)
+            .filter(|(p, q)| (p[0] - q[0]).abs() > 1e-3)
+            .count();
+        assert!(
+            diff > 50,
+            "a fluorescent sphere rendered like the plain one"
         );
     }
 }

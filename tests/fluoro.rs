@@ -266,7 +266,10 @@ fn measured_shift_sampling_matches_density_chi_square() {
 
 /// A wrong sampler: the right keep probability, but cells drawn ∝ F·width with the
 /// heaviest cell's weight doubled.
-fn doubled_cell_sampler(r: &Reradiation, lambda_o: f32) -> impl FnMut(&mut Pcg32) -> Option<(bool, f32)> + '_ {
+fn doubled_cell_sampler(
+    r: &Reradiation,
+    lambda_o: f32,
+) -> impl FnMut(&mut Pcg32) -> Option<(bool, f32)> + '_ {
     let o = r.cell(lambda_o).unwrap();
     let mut w: Vec<f64> = (0..o)
         .map(|k| {
@@ -301,7 +304,10 @@ fn chi_square_rejects_a_sampler_with_one_cell_doubled() {
         for (j, &lo) in OUTPUTS.iter().enumerate() {
             let counts = histogram(&r, lo, 200_000, 99 + j as u64, doubled_cell_sampler(&r, lo));
             let p = chi_square_p(&counts, &expected_bins(&r, lo));
-            assert!(p < ALPHA, "{name} at {lo} nm: wrong sampler accepted, p = {p}");
+            assert!(
+                p < ALPHA,
+                "{name} at {lo} nm: wrong sampler accepted, p = {p}"
+            );
         }
     }
 }
@@ -478,9 +484,7 @@ fn diagonal_only_never_shifts() {
     let mut rng = Pcg32::new(1, 2);
     for _ in 0..100_000 {
         let lo = LAMBDA_MIN + rng.next_f32() * (LAMBDA_MAX - LAMBDA_MIN);
-        let s = r
-            .sample_input(lo, rng.next_f32(), rng.next_f32())
-            .unwrap();
+        let s = r.sample_input(lo, rng.next_f32(), rng.next_f32()).unwrap();
         assert!(s.kept && s.lambda_i == lo && s.pdf == 1.0, "{s:?}");
         assert_eq!(s.value, d.eval(lo));
         assert_eq!(s.value / s.pdf, d.eval(lo));
@@ -545,8 +549,8 @@ fn dye_sigma_sa_is_quantum_yield_times_absorption() {
 fn dye_matrix_matches_the_formula_at_cell_centres() {
     let (a, e) = (dye_absorption(), dye_emission());
     for scaling in [false, true] {
-        let r = Reradiation::from_dye_with_scaling(dye_diagonal(), &a, &e, PHI, 10.0, scaling)
-            .unwrap();
+        let r =
+            Reradiation::from_dye_with_scaling(dye_diagonal(), &a, &e, PHI, 10.0, scaling).unwrap();
         assert_eq!(r.cells(), 47);
         for i in 0..r.cells() {
             let ci = r.cell_centre(i);
@@ -591,9 +595,14 @@ fn dye_rejects_bad_parameters() {
     assert!(err.contains("quantum yield"), "{err}");
     let err = Reradiation::from_dye(d.clone(), &a, &e, 0.5, 0.0).unwrap_err();
     assert!(err.contains("cell width"), "{err}");
-    let err = Reradiation::from_dye(d.clone(), &Spectrum::Constant(1.2), &e, 0.5, 10.0).unwrap_err();
-    assert!(err.contains("absorption") && err.contains("365 nm"), "{err}");
-    let err = Reradiation::from_dye(d.clone(), &a, &Spectrum::Constant(-1.0), 0.5, 10.0).unwrap_err();
+    let err =
+        Reradiation::from_dye(d.clone(), &Spectrum::Constant(1.2), &e, 0.5, 10.0).unwrap_err();
+    assert!(
+        err.contains("absorption") && err.contains("365 nm"),
+        "{err}"
+    );
+    let err =
+        Reradiation::from_dye(d.clone(), &a, &Spectrum::Constant(-1.0), 0.5, 10.0).unwrap_err();
     assert!(err.contains("emission"), "{err}");
     let err = Reradiation::from_dye(d, &a, &Spectrum::Constant(0.0), 0.5, 10.0).unwrap_err();
     assert!(err.contains("emission is zero"), "{err}");
@@ -641,7 +650,11 @@ fn example_csv_imports_with_the_planted_defects_counted() {
     assert!((r.d(360.0) - 0.69867).abs() < 1e-6);
     assert!(r.d(829.9) > 0.89);
     // The synthetic dye conserves energy.
-    assert!(r.energy_gain_rows().is_empty(), "{:?}", r.energy_gain_rows());
+    assert!(
+        r.energy_gain_rows().is_empty(),
+        "{:?}",
+        r.energy_gain_rows()
+    );
 }
 
 /// A 4-cell matrix at 400, 410, 420, 430 nm.
@@ -670,7 +683,12 @@ fn clamping_counts_every_changed_entry_once() {
     assert_eq!(r.f(400.0, 420.0), 0.0);
     assert!((r.sigma_sa(410.0) - 0.06).abs() < 1e-6);
     assert!((r.sigma_se(430.0) - 0.01).abs() < 1e-6);
-    let clean = small_matrix(["0.5, 0.1, 0, 0", "0, 0.5, 0.1, 0", "0, 0, 0.5, 0", "0, 0, 0, 0.5"]);
+    let clean = small_matrix([
+        "0.5, 0.1, 0, 0",
+        "0, 0.5, 0.1, 0",
+        "0, 0, 0.5, 0",
+        "0, 0, 0, 0.5",
+    ]);
     let (_, report) = Reradiation::from_csv_str(&clean, "clean.csv").unwrap();
     assert!(report.is_clean());
     // Whitespace separation works too.
@@ -681,7 +699,12 @@ fn clamping_counts_every_changed_entry_once() {
 
 #[test]
 fn csv_errors_name_the_file_and_line() {
-    let ok = ["0.5, 0.1, 0, 0", "0, 0.5, 0.1, 0", "0, 0, 0.5, 0", "0, 0, 0, 0.5"];
+    let ok = [
+        "0.5, 0.1, 0, 0",
+        "0, 0.5, 0.1, 0",
+        "0, 0, 0.5, 0",
+        "0, 0, 0, 0.5",
+    ];
     let check = |name: &str, text: &str, line: usize, words: &[&str]| {
         let path = scratch(name, text);
         let e = Reradiation::from_csv(&path).unwrap_err();
@@ -694,7 +717,12 @@ fn csv_errors_name_the_file_and_line() {
     // Ragged row (line 4 is the second data row).
     let mut rows = ok;
     rows[1] = "0, 0.5, 0.1";
-    check("ragged.csv", &small_matrix(rows), 4, &["expected 5 fields", "found 4"]);
+    check(
+        "ragged.csv",
+        &small_matrix(rows),
+        4,
+        &["expected 5 fields", "found 4"],
+    );
     // Not a number.
     let mut rows = ok;
     rows[2] = "0, 0, abc, 0";
@@ -715,14 +743,25 @@ fn csv_errors_name_the_file_and_line() {
     check("long.csv", text, 4, &["too many"]);
     // A header that is a number, or too short.
     check("nohdr.csv", "400, 0.5, 0\n410, 0, 0.5\n", 1, &["header"]);
-    check("hdr1.csv", "# c\n\nnm, 400\n400, 0.5\n", 3, &["at least 2 wavelengths"]);
+    check(
+        "hdr1.csv",
+        "# c\n\nnm, 400\n400, 0.5\n",
+        3,
+        &["at least 2 wavelengths"],
+    );
     // No data and no file.
     let path = scratch("empty.csv", "# nothing\n");
     let e = Reradiation::from_csv(&path).unwrap_err();
-    assert!(e.starts_with(&format!("{}:", path.display())) && e.contains("no data"), "{e}");
+    assert!(
+        e.starts_with(&format!("{}:", path.display())) && e.contains("no data"),
+        "{e}"
+    );
     let missing = Path::new("/nonexistent/stokes/matrix.csv");
     let e = Reradiation::from_csv(missing).unwrap_err();
-    assert!(e.starts_with("/nonexistent/stokes/matrix.csv: cannot read"), "{e}");
+    assert!(
+        e.starts_with("/nonexistent/stokes/matrix.csv: cannot read"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -752,7 +791,11 @@ fn energy_gain_rows_name_the_wavelength() {
     assert!(!rows.is_empty());
     let a = dye_absorption();
     for &(l, total) in &rows {
-        assert!(a.eval(l) > 0.5 - 1e-3, "{l} nm reported with A = {}", a.eval(l));
+        assert!(
+            a.eval(l) > 0.5 - 1e-3,
+            "{l} nm reported with A = {}",
+            a.eval(l)
+        );
         assert!((total - (0.5 + a.eval(l))).abs() < 1e-4, "{l}: {total}");
     }
     assert!(rows.iter().any(|&(l, _)| l == 445.0), "{rows:?}");

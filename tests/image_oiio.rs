@@ -5,7 +5,11 @@ mod common;
 use common::oiio::{stats, z_diff, ZThresholds};
 use common::*;
 
-fn render_cbox(dir: &std::path::Path, seed: u64, spp: u32) -> (std::path::PathBuf, std::path::PathBuf) {
+fn render_cbox(
+    dir: &std::path::Path,
+    seed: u64,
+    spp: u32,
+) -> (std::path::PathBuf, std::path::PathBuf) {
     let out = dir.join("cbox.exr");
     let (ok, _, err) = run(stokes().args([
         "render",
@@ -26,20 +30,33 @@ fn render_cbox(dir: &std::path::Path, seed: u64, spp: u32) -> (std::path::PathBu
 
 #[test]
 fn exr_is_read_by_oiiotool_with_the_expected_size_and_no_nan() {
-    assert!(have("oiiotool"), "oiiotool missing: apt-get install openimageio-tools");
+    assert!(
+        have("oiiotool"),
+        "oiiotool missing: apt-get install openimageio-tools"
+    );
     let dir = scratch("oiiostats");
     let (img, var) = render_cbox(&dir, 5, 4);
     for f in [&img, &var] {
-        let st = stats(f).unwrap().split_whitespace().collect::<Vec<_>>().join(" ");
+        let st = stats(f)
+            .unwrap()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
         assert!(st.contains("64 x 64, 3 channel, float openexr"), "{st}");
         assert!(st.contains("channel list: R, G, B"), "{st}");
-        assert!(st.contains("NanCount: 0 0 0") && st.contains("InfCount: 0 0 0"), "{st}");
+        assert!(
+            st.contains("NanCount: 0 0 0") && st.contains("InfCount: 0 0 0"),
+            "{st}"
+        );
     }
 }
 
 #[test]
 fn cornell_box_matches_the_stored_reference() {
-    assert!(have("idiff"), "idiff missing: apt-get install openimageio-tools");
+    assert!(
+        have("idiff"),
+        "idiff missing: apt-get install openimageio-tools"
+    );
     let dir = scratch("oiioref");
     let (img, var) = render_cbox(&dir, 77, 256);
     let rf = root().join("tests/reference/cornell-box-64.exr");
@@ -54,8 +71,14 @@ fn cornell_box_matches_the_stored_reference() {
     let n = a.len() as f64;
     let mean = |px: &[[f32; 3]], c: usize| px.iter().map(|p| p[c] as f64).sum::<f64>() / n;
     let se = |v: &[[f32; 3]], c: usize| (v.iter().map(|p| p[c] as f64).sum::<f64>()).sqrt() / n;
-    let ta = (std::array::from_fn(|c| mean(&a, c)), std::array::from_fn(|c| se(&av, c)));
-    let tb = (std::array::from_fn(|c| mean(&b, c)), std::array::from_fn(|c| se(&bv, c)));
+    let ta = (
+        std::array::from_fn(|c| mean(&a, c)),
+        std::array::from_fn(|c| se(&av, c)),
+    );
+    let tb = (
+        std::array::from_fn(|c| mean(&b, c)),
+        std::array::from_fn(|c| se(&bv, c)),
+    );
     assert_agree("image mean vs reference", ta, tb, 4.0);
 }
 
@@ -69,13 +92,28 @@ fn the_check_fails_on_a_biased_image() {
     let shifted = dir.join("shifted.exr");
     let p = |x: &std::path::Path| x.display().to_string();
     let st = std::process::Command::new("oiiotool")
-        .args([&p(&var), &p(&rv), "--add", "--powc", "0.5", "--mulc", "3", &p(&img), "--add", "-o", &p(&shifted)])
+        .args([
+            &p(&var),
+            &p(&rv),
+            "--add",
+            "--powc",
+            "0.5",
+            "--mulc",
+            "3",
+            &p(&img),
+            "--add",
+            "-o",
+            &p(&shifted),
+        ])
         .status()
         .unwrap();
     assert!(st.success());
     let e = z_diff(&shifted, &var, &rf, &rv, ZThresholds::default()).unwrap_err();
     assert!(e.contains("zdiff.exr"), "{e}");
-    assert!(dir.join("shifted.zdiff.exr").exists(), "difference image not kept");
+    assert!(
+        dir.join("shifted.zdiff.exr").exists(),
+        "difference image not kept"
+    );
 
     let bright = dir.join("bright.exr");
     let st = std::process::Command::new("oiiotool")

@@ -49,7 +49,11 @@ fn white_furnace_returns_the_emitted_radiance() {
         let (m, se) = region_mean(&film, &all_pixels(&film));
         eprintln!("{spectral:?}: mean {m:?} se {se:?}, expected {expected}");
         for c in 0..3 {
-            assert!(se[c] < 0.0012 * expected[c] as f64, "{spectral:?}: too few samples for the test to decide (se {})", se[c]);
+            assert!(
+                se[c] < 0.0012 * expected[c] as f64,
+                "{spectral:?}: too few samples for the test to decide (se {})",
+                se[c]
+            );
             let rel = (m[c] - expected[c] as f64).abs() / expected[c] as f64;
             assert!(
                 rel < 0.005,
@@ -70,7 +74,11 @@ fn diffuse_sphere_in_uniform_enclosure_matches_albedo_times_radiance() {
     let d65 = "{ illuminant = \"D65\", scale = 0.01 }";
     let text = enclosure_scene(rho, d65);
     let rho_s = Spectrum::Tabulated(
-        stokes::spectrum::Tabulated::new(vec![360.0, 500.0, 600.0, 830.0], vec![0.2, 0.8, 0.3, 0.6]).unwrap(),
+        stokes::spectrum::Tabulated::new(
+            vec![360.0, 500.0, 600.0, 830.0],
+            vec![0.2, 0.8, 0.3, 0.6],
+        )
+        .unwrap(),
     );
     let d65_s = Spectrum::Scaled(Box::new(stokes::spectrum::illuminant("D65").unwrap()), 0.01);
     let expected = xyz_to_linear_srgb(reflectance_to_xyz(&rho_s, &d65_s));
@@ -98,11 +106,16 @@ fn biased_expectation_is_rejected() {
     let mut scene = scene_from(&enclosure_scene("0.5", "1.0"));
     let film = render_film(&mut scene, 32, 32, 256, 3, Spectral::Hwss, -1, 0);
     let expected = xyz_to_linear_srgb(spectrum_to_xyz(&Spectrum::Constant(0.5)));
-    let centre: Vec<usize> = (0..32 * 32usize).filter(|i| (i % 32).abs_diff(16) < 5 && (i / 32).abs_diff(16) < 5).collect();
+    let centre: Vec<usize> = (0..32 * 32usize)
+        .filter(|i| (i % 32).abs_diff(16) < 5 && (i / 32).abs_diff(16) < 5)
+        .collect();
     let got = region_mean(&film, &centre);
     for c in 0..3 {
         let want = expected[c] as f64 * 1.03;
-        assert!((got.0[c] - want).abs() > 4.0 * got.1[c], "a 3 % bias went unnoticed");
+        assert!(
+            (got.0[c] - want).abs() > 4.0 * got.1[c],
+            "a 3 % bias went unnoticed"
+        );
     }
 }
 
@@ -147,6 +160,9 @@ fn hwss_and_mono_agree_on_the_cornell_box() {
     assert_agree("HWSS vs mono, image mean", hm, mm, 4.0);
     // HWSS is the less noisy of the two (that is its point).
     for c in 0..3 {
-        assert!(hm.1[c] < mm.1[c], "HWSS not less noisy than mono in channel {c}");
+        assert!(
+            hm.1[c] < mm.1[c],
+            "HWSS not less noisy than mono in channel {c}"
+        );
     }
 }

@@ -2,7 +2,12 @@
 //!
 //! Which major version was found is exposed as the cfg `embree3` or `embree4` and as
 //! [`EMBREE_MAJOR`]. Nothing outside `stokes::accel` should use this crate directly.
-#![allow(non_upper_case_globals, non_camel_case_types, non_snake_case, dead_code)]
+#![allow(
+    non_upper_case_globals,
+    non_camel_case_types,
+    non_snake_case,
+    dead_code
+)]
 #![allow(clippy::all)]
 
 include!(concat!(env!("OUT_DIR"), "/bindings.rs"));

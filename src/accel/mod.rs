@@ -47,7 +47,13 @@ impl EmbreeError {
 
 impl fmt::Display for EmbreeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "Embree error {} ({}): {}", self.code_name(), self.code, self.message)
+        write!(
+            f,
+            "Embree error {} ({}): {}",
+            self.code_name(),
+            self.code,
+            self.message
+        )
     }
 }
 
@@ -65,7 +71,9 @@ unsafe extern "C" fn error_callback(user: *mut c_void, code: sys::RTCError, msg:
         String::from("(no message)")
     } else {
         // SAFETY: see above; Embree passes a valid C string.
-        unsafe { CStr::from_ptr(msg) }.to_string_lossy().into_owned()
+        unsafe { CStr::from_ptr(msg) }
+            .to_string_lossy()
+            .into_owned()
     };
     if let Ok(mut s) = slot.lock() {
         if s.is_none() {
@@ -232,7 +240,14 @@ impl SceneBuilder {
             // SAFETY: `geom` is a live geometry; Embree allocates a buffer of `nv` items
             // of 12 bytes (with its own padding) and returns a pointer to it or null.
             let vb = unsafe {
-                sys::rtcSetNewGeometryBuffer(geom, sys::RTC_BUFFER_TYPE_VERTEX, 0, fmt, 12, nv as usize)
+                sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    fmt,
+                    12,
+                    nv as usize,
+                )
             } as *mut [f32; 3];
             self.device.take_error()?;
             if !vb.is_null() && nv > 0 {
@@ -243,7 +258,14 @@ impl SceneBuilder {
             let nt = indices.len();
             // SAFETY: as for the vertex buffer, with `nt` items of three u32.
             let ib = unsafe {
-                sys::rtcSetNewGeometryBuffer(geom, sys::RTC_BUFFER_TYPE_INDEX, 0, sys::RTC_FORMAT_UINT3, 12, nt)
+                sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    sys::RTC_FORMAT_UINT3,
+                    12,
+                    nt,
+                )
             } as *mut [u32; 3];
             self.device.take_error()?;
             if !ib.is_null() && nt > 0 {

@@ -411,7 +411,9 @@ impl Reradiation {
         (0..n)
             .filter_map(|i| {
                 let c = self.cell_centre(i);
-                let out: f64 = (i + 1..n).map(|o| f64::from(self.f[i * n + o])).sum::<f64>()
+                let out: f64 = (i + 1..n)
+                    .map(|o| f64::from(self.f[i * n + o]))
+                    .sum::<f64>()
                     * f64::from(self.cell_nm);
                 let total = (f64::from(self.d(c)) + out) as f32;
                 (total > 1.0 + 1e-5).then_some((c, total))
@@ -545,7 +547,7 @@ mod tests {
         assert!((r.sigma_sa(500.0) - 0.002 * 30.0).abs() < 1e-6);
         assert_eq!(r.f(650.0, 700.0), 0.0); // the ignored anti-Stokes entry is gone
         assert_eq!(r.f(300.0, 500.0), 0.0); // outside the range
-        // Energy rows use the unclipped row: 0.5 + 0.001·200 for the cell centred at 300.
+                                            // Energy rows use the unclipped row: 0.5 + 0.001·200 for the cell centred at 300.
         assert!(r.energy_gain_rows().is_empty());
     }
 
@@ -570,7 +572,10 @@ mod tests {
         // Extreme random numbers still give a sample inside the cell.
         for u in [0.0, 1.0 - f32::EPSILON, 1.0, 2.0, -1.0] {
             let s = r.sample_input(450.0, 0.99999, u).unwrap();
-            assert!(!s.kept && (360.0..400.0).contains(&s.lambda_i), "{u}: {s:?}");
+            assert!(
+                !s.kept && (360.0..400.0).contains(&s.lambda_i),
+                "{u}: {s:?}"
+            );
             assert_eq!(r.cell(s.lambda_i), Some(0));
         }
     }
@@ -597,7 +602,11 @@ mod tests {
                 let s = r.sample_input(lo, 0.5, u).unwrap();
                 assert!(!s.kept);
                 let i = r.cell(s.lambda_i).unwrap();
-                assert!(i < o && s.lambda_i < b, "λi {} not below cell {o}", s.lambda_i);
+                assert!(
+                    i < o && s.lambda_i < b,
+                    "λi {} not below cell {o}",
+                    s.lambda_i
+                );
                 assert_eq!(s.value, r.f(s.lambda_i, lo));
                 assert_eq!(s.pdf, r.pdf_input(s.lambda_i, lo, false));
                 assert!((s.value / s.pdf - total).abs() <= 1e-5 * total);

@@ -18,9 +18,9 @@ pub mod render;
 use crate::accel::Ray;
 use crate::bsdf::Material;
 use crate::fluoro::Reradiation;
-use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
+use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
 
 /// How wavelengths are sampled per path.
@@ -150,7 +150,9 @@ pub fn radiance(
 
     loop {
         stats.rays += 1;
-        let Some(hit) = scene.accel.intersect1(&ray) else { break };
+        let Some(hit) = scene.accel.intersect1(&ray) else {
+            break;
+        };
         depth += 1;
         let p = ray.org + ray.dir * hit.t;
         let ng = hit.ng.normalize();
@@ -168,7 +170,8 @@ pub fn radiance(
                     Some((pdf_bsdf, ratio_prev, p_prev)) => {
                         let d2 = (p - p_prev).length_squared();
                         let cos_l = ng.dot(wo).abs();
-                        let p_light = lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
+                        let p_light =
+                            lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
                         let denom = (ratio_prev * (pdf_bsdf + Vec4::splat(p_light))).element_sum();
                         // beta already holds f/p_bsdf,0; put the hero's pdf back.
                         l += beta * le * (pdf_bsdf.x / denom);
@@ -179,14 +182,23 @@ pub fn radiance(
         if max_depth >= 0 && depth >= max_depth {
             break;
         }
-        let Some(mat_id) = scene.geometries[hit.geom_id as usize].material else { break };
+        let Some(mat_id) = scene.geometries[hit.geom_id as usize].material else {
+            break;
+        };
         let mat = &scene.materials[mat_id as usize];
         if let Material::FluorescentDiffuse { reradiation } = mat {
             let lanes = match spectral {
                 Spectral::Hwss => shifting,
                 Spectral::Mono => Shifting::Independent,
             };
-            if !shift_wavelengths(reradiation, lanes, &mut lambda, &mut beta, &mut ratio, shift_rng.get()) {
+            if !shift_wavelengths(
+                reradiation,
+                lanes,
+                &mut lambda,
+                &mut beta,
+                &mut ratio,
+                shift_rng.get(),
+            ) {
                 break;
             }
             le_cache = EmissionCache::default();
@@ -225,7 +237,9 @@ pub fn radiance(
         // Continue the path with the hero's BSDF sample.
         let uc = rng.next_f32();
         let u2 = rng.next_2d();
-        let Some(bs) = material.sample(ng, wo, uc, u2) else { break };
+        let Some(bs) = material.sample(ng, wo, uc, u2) else {
+            break;
+        };
         let p0 = bs.pdf.x;
         if p0 <= 0.0 {
             break;
@@ -233,7 +247,11 @@ pub fn radiance(
         let ratio_prev = ratio;
         beta *= bs.f_cos / p0;
         ratio *= bs.pdf / p0;
-        prev_bsdf = if bs.specular { None } else { Some((bs.pdf, ratio_prev, p)) };
+        prev_bsdf = if bs.specular {
+            None
+        } else {
+            Some((bs.pdf, ratio_prev, p))
+        };
         if beta == Vec4::ZERO {
             break;
         }
@@ -296,7 +314,9 @@ pub fn shift_wavelengths(
         }
         Shifting::Constant => {
             let (uc, ul) = (rng.next_f32(), rng.next_f32());
-            let Some(h) = rr.sample_input(lambda.x, uc, ul) else { return false };
+            let Some(h) = rr.sample_input(lambda.x, uc, ul) else {
+                return false;
+            };
             if h.pdf <= 0.0 {
                 return false;
             }

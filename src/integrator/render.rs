@@ -182,14 +182,19 @@ pub fn render_pass(
 
 /// Renders `opts.spp` samples per pixel on a pool of `opts.threads` threads. The scene's
 /// camera must have the resolution of `opts` (see [`Scene::set_resolution`]).
-pub fn render(scene: &Scene, opts: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderResult, String> {
+pub fn render(
+    scene: &Scene,
+    opts: &RenderOptions,
+    on_row: &(dyn Fn() + Sync),
+) -> Result<RenderResult, String> {
     if (scene.camera.width, scene.camera.height) != (opts.width, opts.height) {
         return Err(format!(
             "render options ask for {}x{} but the camera is {}x{}",
             opts.width, opts.height, scene.camera.width, scene.camera.height
         ));
     }
-    let pool = crate::accel::thread_pool(opts.threads).map_err(|e| format!("cannot start threads: {e}"))?;
+    let pool = crate::accel::thread_pool(opts.threads)
+        .map_err(|e| format!("cannot start threads: {e}"))?;
     let mut film = Film::new(opts.width, opts.height);
     let start = Instant::now();
     let stats = pool.install(|| render_pass(scene, opts, &mut film, 0, opts.spp, on_row));

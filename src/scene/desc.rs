@@ -155,7 +155,9 @@ impl<'de> Deserialize<'de> for SpectrumDesc {
         impl<'de> Visitor<'de> for V {
             type Value = SpectrumDesc;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a spectrum: a number, a name, or a table such as { csv = \"file.csv\" }")
+                f.write_str(
+                    "a spectrum: a number, a name, or a table such as { csv = \"file.csv\" }",
+                )
             }
             fn visit_f64<E: de::Error>(self, v: f64) -> Result<Self::Value, E> {
                 Ok(SpectrumDesc::Constant(v))

@@ -233,7 +233,9 @@ impl Builder<'_> {
             for (name, mut mesh) in self.meshes(&key, s)? {
                 let scale = s.scale.unwrap_or(1.0);
                 if !(scale.is_finite() && scale > 0.0) {
-                    return Err(format!("{key}.scale: expected a positive number, found {scale}"));
+                    return Err(format!(
+                        "{key}.scale: expected a positive number, found {scale}"
+                    ));
                 }
                 let t = check_vec(&format!("{key}.translate"), s.translate.unwrap_or([0.0; 3]))?;
                 mesh.transform(scale, t);
@@ -250,7 +252,11 @@ impl Builder<'_> {
                     lights.add(id, em.clone(), &mesh.positions, &mesh.indices);
                 }
                 geometries.push(Geometry {
-                    name: if name.is_empty() { key.clone() } else { format!("{key} ({name})") },
+                    name: if name.is_empty() {
+                        key.clone()
+                    } else {
+                        format!("{key} ({name})")
+                    },
                     material,
                     triangles: mesh.indices.len(),
                 });
@@ -279,7 +285,11 @@ impl Builder<'_> {
         self.base.join(file)
     }
 
-    fn meshes(&self, key: &str, s: &desc::ShapeDesc) -> Result<Vec<(String, shapes::TriMesh)>, String> {
+    fn meshes(
+        &self,
+        key: &str,
+        s: &desc::ShapeDesc,
+    ) -> Result<Vec<(String, shapes::TriMesh)>, String> {
         let need3 = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3, String> {
             let v = v.ok_or_else(|| format!("{key}: missing key `{k}` for a {} shape", s.kind))?;
             check_vec(&format!("{key}.{k}"), v)
@@ -501,7 +511,12 @@ impl Builder<'_> {
     }
 
     /// Turns a spectrum description into a spectrum, checking its values against `range`.
-    fn spectrum(&self, key: &str, s: &SpectrumDesc, range: Option<Range>) -> Result<Spectrum, String> {
+    fn spectrum(
+        &self,
+        key: &str,
+        s: &SpectrumDesc,
+        range: Option<Range>,
+    ) -> Result<Spectrum, String> {
         let spec = match s {
             SpectrumDesc::Constant(v) => Spectrum::Constant(*v as f32),
             SpectrumDesc::Name(n) => {
@@ -554,7 +569,9 @@ impl Builder<'_> {
             "blackbody" => {
                 let k = t.blackbody.unwrap_or(0.0);
                 if !(k.is_finite() && k > 0.0) {
-                    return Err(format!("{key}.blackbody: expected a temperature in kelvin > 0, found {k}"));
+                    return Err(format!(
+                        "{key}.blackbody: expected a temperature in kelvin > 0, found {k}"
+                    ));
                 }
                 Spectrum::Blackbody {
                     kelvin: k,
@@ -597,7 +614,9 @@ impl Builder<'_> {
         };
         Ok(match t.scale {
             Some(s) if !(s.is_finite() && s >= 0.0) => {
-                return Err(format!("{key}.scale: expected a non-negative number, found {s}"))
+                return Err(format!(
+                    "{key}.scale: expected a non-negative number, found {s}"
+                ))
             }
             Some(s) if s != 1.0 => Spectrum::Scaled(Box::new(spec), s),
             _ => spec,
@@ -616,7 +635,9 @@ fn check_range(key: &str, spec: &Spectrum, range: Option<Range>) -> Result<(), S
         let l = spectrum::LAMBDA_MIN + i as f32;
         let v = spec.eval(l);
         if !v.is_finite() {
-            return Err(format!("{key}: expected finite values, found {v} at {l} nm"));
+            return Err(format!(
+                "{key}: expected finite values, found {v} at {l} nm"
+            ));
         }
         if v < lo {
             lo = v;
@@ -659,7 +680,9 @@ fn ior_from(key: &str, d: &IorDesc) -> Result<Ior, String> {
     for l in [spectrum::LAMBDA_MIN, 550.0, spectrum::LAMBDA_MAX] {
         let n = ior.eval(l);
         if !(n.is_finite() && n >= 1.0) {
-            return Err(format!("{key}: expected an index ≥ 1 over 360–830 nm, found {n} at {l} nm"));
+            return Err(format!(
+                "{key}: expected an index ≥ 1 over 360–830 nm, found {n} at {l} nm"
+            ));
         }
     }
     Ok(ior)

@@ -30,10 +30,9 @@ pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>, String> {
     };
     let mut reader = std::io::BufReader::new(text.as_bytes());
     // Materials are the scene file's business; ignore .mtl references.
-    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })
-    .map_err(|e| format!("{}: malformed OBJ file: {e}", path.display()))?;
+    let (models, _) =
+        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+            .map_err(|e| format!("{}: malformed OBJ file: {e}", path.display()))?;
     let mut out = Vec::with_capacity(models.len());
     for m in models {
         let mesh = m.mesh;
@@ -70,7 +69,13 @@ fn validate(path: &Path, text: &str) -> Result<(), String> {
         let lineno = i + 1;
         let mut words = line.split_whitespace();
         let Some(tag) = words.next() else { continue };
-        let err = |what: &str| format!("{}:{lineno}: {what}, found {:?}", path.display(), raw.trim());
+        let err = |what: &str| {
+            format!(
+                "{}:{lineno}: {what}, found {:?}",
+                path.display(),
+                raw.trim()
+            )
+        };
         match tag {
             "v" => {
                 let vals: Vec<&str> = words.collect();
@@ -143,8 +148,14 @@ mod tests {
         assert!(e.contains("bad.obj:3"), "{e}");
         let p = write("range.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 4\n");
         let e = load_obj(&p).unwrap_err();
-        assert!(e.contains("range.obj:4") && e.contains("out of range"), "{e}");
+        assert!(
+            e.contains("range.obj:4") && e.contains("out of range"),
+            "{e}"
+        );
         let e = load_obj(Path::new("/nonexistent/x.obj")).unwrap_err();
-        assert!(e.contains("/nonexistent/x.obj") && e.contains("cannot read"), "{e}");
+        assert!(
+            e.contains("/nonexistent/x.obj") && e.contains("cannot read"),
+            "{e}"
+        );
     }
 }

@@ -45,7 +45,12 @@ impl TriMesh {
 
 /// A parallelogram `origin + s·edge_u + t·edge_v`, s, t ∈ [0, 1], facing `edge_u × edge_v`.
 pub fn quad(origin: Vec3, edge_u: Vec3, edge_v: Vec3) -> TriMesh {
-    let p = [origin, origin + edge_u, origin + edge_u + edge_v, origin + edge_v];
+    let p = [
+        origin,
+        origin + edge_u,
+        origin + edge_u + edge_v,
+        origin + edge_v,
+    ];
     TriMesh {
         positions: p.iter().map(|v| (*v).into()).collect(),
         indices: vec![[0, 1, 2], [0, 2, 3]],
@@ -57,12 +62,12 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
     let d = max - min;
     let (x, y, z) = (Vec3::X * d.x, Vec3::Y * d.y, Vec3::Z * d.z);
     let faces = [
-        (min, z, y),         // −x
-        (min + x, y, z),     // +x
-        (min, x, z),         // −y
-        (min + y, z, x),     // +y
-        (min, y, x),         // −z
-        (min + z, x, y),     // +z
+        (min, z, y),     // −x
+        (min + x, y, z), // +x
+        (min, x, z),     // −y
+        (min + y, z, x), // +y
+        (min, y, x),     // −z
+        (min + z, x, y), // +z
     ];
     let mut m = TriMesh::default();
     for (o, u, v) in faces {
@@ -86,7 +91,11 @@ pub fn uv_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> TriMesh
         let theta = std::f32::consts::PI * i as f32 / stacks as f32;
         for j in 0..slices {
             let phi = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
-            let d = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let d = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             positions.push((centre + d * radius).into());
         }
     }

@@ -33,7 +33,17 @@ pub fn scene_file(name: &str) -> Scene {
 }
 
 /// Renders `scene` at `w`×`h`.
-pub fn render_film(scene: &mut Scene, w: u32, h: u32, spp: u32, seed: u64, spectral: Spectral, max_depth: i32, threads: usize) -> Film {
+#[allow(clippy::too_many_arguments)]
+pub fn render_film(
+    scene: &mut Scene,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+    spectral: Spectral,
+    max_depth: i32,
+    threads: usize,
+) -> Film {
     scene.set_resolution(w, h);
     let opts = RenderOptions {
         width: w,

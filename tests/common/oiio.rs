@@ -61,19 +61,35 @@ pub fn z_diff(
     let zero: PathBuf = test.with_extension("zero.exr");
     let p = |x: &Path| x.display().to_string();
     oiiotool(&[
-        &p(test), &p(reference), "--sub",
-        &p(test_var), &p(ref_var), "--add", "--addc", "1e-20", "--powc", "0.5",
-        "--div", "-o", &p(&z),
+        &p(test),
+        &p(reference),
+        "--sub",
+        &p(test_var),
+        &p(ref_var),
+        "--add",
+        "--addc",
+        "1e-20",
+        "--powc",
+        "0.5",
+        "--div",
+        "-o",
+        &p(&z),
     ])?;
     oiiotool(&[&p(&z), "--mulc", "0", "-o", &p(&zero)])?;
     let out = Command::new("idiff")
         .args([
-            "-fail", &t.z_fail.to_string(),
-            "-failpercent", &t.fail_percent.to_string(),
-            "-hardfail", &t.z_hard.to_string(),
-            "-warn", &t.z_fail.to_string(),
-            "-warnpercent", &t.fail_percent.to_string(),
-            &p(&z), &p(&zero),
+            "-fail",
+            &t.z_fail.to_string(),
+            "-failpercent",
+            &t.fail_percent.to_string(),
+            "-hardfail",
+            &t.z_hard.to_string(),
+            "-warn",
+            &t.z_fail.to_string(),
+            "-warnpercent",
+            &t.fail_percent.to_string(),
+            &p(&z),
+            &p(&zero),
         ])
         .output()
         .map_err(|e| format!("cannot run idiff (apt-get install openimageio-tools): {e}"))?;
