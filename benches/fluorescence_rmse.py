@@ -23,9 +23,18 @@ def render(scene, out, res, spp, seed, extra):
     return json.load(open(stats))
 
 
-def rmse(a, b):
+def patch_row(res):
+    """The crop (oiiotool geometry) holding the three fluorescent patches: the patch row
+    x in [98, 458] mm, y in [90, 190] mm on the back wall, seen by the box's camera."""
+    x0, x1 = int(0.3145 * res) + 1, int(0.6855 * res) - 1
+    y0, y1 = int(0.5856 * res) + 1, int(0.6887 * res) - 1
+    return f"{x1 - x0}x{y1 - y0}+{x0}+{y0}"
+
+
+def rmse(a, b, crop=None):
     """RMSE over pixels and channels, from oiiotool's mean of the squared difference."""
-    out = subprocess.run(["oiiotool", a, b, "--sub", "--dup", "--mul", "--printstats"],
+    cut = ["--cut", crop] if crop else []
+    out = subprocess.run(["oiiotool", a] + cut + [b] + cut + ["--sub", "--dup", "--mul", "--printstats"],
                          check=True, capture_output=True, text=True).stdout
     for line in out.splitlines():
         if "Stats Avg:" in line:
@@ -44,8 +53,9 @@ def main():
     ap.add_argument("--png-dir", default="docs/results")
     a = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="stokes-rmse-")
-    print(f"| scene | method | RMSE @ {a.spp} spp | M samples/s | spp at equal time | RMSE @ equal time |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print(f"| scene | method | M samples/s | RMSE @ {a.spp} spp: image | patches | spp at equal time | RMSE @ equal time: image | patches |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    crop = patch_row(a.res)
     for scene in a.scenes:
         name = os.path.splitext(os.path.basename(scene))[0]
         ref = os.path.join(tmp, f"{name}-ref.exr")
@@ -55,15 +65,16 @@ def main():
             out = os.path.join(tmp, f"{name}-{m}.exr")
             st = render(scene, out, a.res, a.spp, 1, extra + ["--png"])
             secs[m] = st["seconds"]
-            rows.append((m, rmse(out, ref), st["samples_per_second"]))
+            rows.append((m, rmse(out, ref), rmse(out, ref, crop), st["samples_per_second"]))
             pngs.append(out[:-4] + ".png")
         budget = secs["hwss-independent"]
-        for m, err, sps in rows:
+        for m, err, err_p, sps in rows:
             extra = dict(METHODS)[m]
             spp_eq = max(1, round(a.spp * budget / secs[m]))
             out = os.path.join(tmp, f"{name}-{m}-eq.exr")
             render(scene, out, a.res, spp_eq, 2, extra)
-            print(f"| {name} | {m} | {err:.4f} | {sps / 1e6:.2f} | {spp_eq} | {rmse(out, ref):.4f} |")
+            print(f"| {name} | {m} | {sps / 1e6:.2f} | {err:.4f} | {err_p:.4f} | {spp_eq} "
+                  f"| {rmse(out, ref):.4f} | {rmse(out, ref, crop):.4f} |")
             sys.stdout.flush()
         os.makedirs(a.png_dir, exist_ok=True)
         subprocess.run(["oiiotool"] + pngs + ["--mosaic", "3x1", "-o",

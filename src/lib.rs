@@ -17,3 +17,4 @@ pub mod output;
 pub mod sampler;
 pub mod scene;
 pub mod spectrum;
+pub mod medium;

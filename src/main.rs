@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use stokes::integrator::render::{render, RenderOptions};
 use stokes::integrator::{Shifting, Spectral};
+use stokes::medium::tracking::Tracking;
 use stokes::scene::Scene;
 
 #[derive(Parser)]
@@ -84,6 +85,10 @@ struct RenderArgs {
     /// How the four wavelengths move at a fluorescent vertex (HWSS).
     #[arg(long, value_enum, default_value_t = Shifting::Independent)]
     shifting: Shifting,
+    /// Distance sampling in media (default: classic where no medium fluoresces,
+    /// fluo-aware where one does; `stokes info` says which).
+    #[arg(long, value_enum)]
+    tracking: Option<Tracking>,
     /// Path segments from the camera: 1 = emitters only, 2 = direct light, −1 = unbounded.
     #[arg(long, allow_negative_numbers = true)]
     max_depth: Option<i32>,
@@ -163,6 +168,7 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         max_depth: a.max_depth.unwrap_or(scene.render.max_depth),
         spectral: a.spectral,
         shifting: a.shifting,
+        tracking: a.tracking,
         threads: a.threads,
     };
     if opts.spp == 0 {
@@ -209,6 +215,10 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         ("seed".to_string(), opts.seed.to_string()),
         ("spectral".to_string(), opts.spectral.name().to_string()),
         ("shifting".to_string(), opts.shifting.name().to_string()),
+        (
+            "tracking".to_string(),
+            format!("{:?}", opts.tracking.unwrap_or_else(|| scene.default_tracking().0)).to_lowercase(),
+        ),
         ("max_depth".to_string(), opts.max_depth.to_string()),
         (
             "render_seconds".to_string(),
@@ -316,7 +326,17 @@ fn cmd_info(path: &Path) -> Result<(), String> {
     } else {
         println!("fluorescence none: plain HWSS, no shift sampling (--shifting has no effect)");
     }
-    println!("media       none: no distance tracking");
+    if scene.has_media() {
+        let (t, why) = scene.default_tracking();
+        println!(
+            "media       {} ({}); default tracking {:?}: {why}",
+            scene.medium_names.join(", "),
+            if scene.has_fluorescent_media() { "fluorescent" } else { "not fluorescent" },
+            t
+        );
+    } else {
+        println!("media       none: no distance tracking");
+    }
     Ok(())
 }
 

@@ -8,7 +8,7 @@ use glam::Vec3;
 use stokes::bsdf::Material;
 use stokes::color::xyz_to_linear_srgb;
 use stokes::integrator::render::{render, RenderOptions};
-use stokes::integrator::{radiance, PathStats, Shifting, Spectral};
+use stokes::integrator::{radiance, PathOptions, PathStats, Shifting, Spectral};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 use stokes::spectrum::{illuminant, Spectrum};
@@ -30,6 +30,7 @@ fn render_with(
         max_depth: -1,
         spectral,
         shifting,
+        tracking: None,
         threads: 0,
     };
     let r = render(scene, &opts, &|| {}).unwrap();
@@ -225,17 +226,13 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
         for i in 0..n {
             let mut rng = Pcg32::for_sample(3, lambda_o as u64, i);
             let mut shift = LazyStream::new(3, lambda_o as u64, i);
-            let l = radiance(
-                &scene,
-                ray,
-                glam::Vec4::splat(lambda_o),
-                Spectral::Mono,
-                Shifting::Independent,
-                -1,
-                &mut rng,
-                &mut shift,
-                &mut stats,
-            );
+            let opts = PathOptions {
+                spectral: Spectral::Mono,
+                shifting: Shifting::Independent,
+                tracking: stokes::medium::tracking::Tracking::Classic,
+                max_depth: -1,
+            };
+            let l = radiance(&scene, ray, glam::Vec4::splat(lambda_o), &opts, &mut rng, &mut shift, &mut stats);
             let v = l.x as f64;
             sum += v;
             sq += v * v;

@@ -545,9 +545,10 @@ mod tests {
         // σ_se of cell 1 = 0.001 · 40 nm (clipped width of cell 0), not · 200 nm.
         assert!((r.sigma_se(500.0) - 0.04).abs() < 1e-6);
         assert!((r.sigma_sa(500.0) - 0.002 * 30.0).abs() < 1e-6);
-        assert_eq!(r.f(650.0, 700.0), 0.0); // the ignored anti-Stokes entry is gone
-        assert_eq!(r.f(300.0, 500.0), 0.0); // outside the range
-                                            // Energy rows use the unclipped row: 0.5 + 0.001·200 for the cell centred at 300.
+        // The ignored anti-Stokes entry is gone; F is 0 outside the range.
+        assert_eq!(r.f(650.0, 700.0), 0.0);
+        assert_eq!(r.f(300.0, 500.0), 0.0);
+        // Energy rows use the unclipped row: 0.5 + 0.001·200 for the cell centred at 300.
         assert!(r.energy_gain_rows().is_empty());
     }
 

@@ -18,6 +18,8 @@ pub mod render;
 use crate::accel::Ray;
 use crate::bsdf::Material;
 use crate::fluoro::Reradiation;
+use crate::medium::tracking::{self, DistanceSample, Tracking};
+use crate::medium::Homogeneous;
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
@@ -78,9 +80,22 @@ fn spawn_eps(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
+/// Everything that selects an estimator, besides the random numbers.
+#[derive(Debug, Clone, Copy)]
+pub struct PathOptions {
+    /// Wavelengths per path.
+    pub spectral: Spectral,
+    /// Lane shifting at fluorescent events (HWSS).
+    pub shifting: Shifting,
+    /// Distance sampling in media.
+    pub tracking: Tracking,
+    /// Path segments from the camera, −1 for unbounded.
+    pub max_depth: i32,
+}
+
 /// The last emitter's spectral radiance at the path's wavelengths: a path meets the same
 /// light again and again (every light sample, every emitter hit), and its wavelengths do
-/// not change.
+/// not change between fluorescent events.
 #[derive(Default)]
 struct EmissionCache {
     emitter: Option<u32>,
@@ -98,9 +113,10 @@ impl EmissionCache {
     }
 }
 
-/// A shadow ray between two surface points, both pushed off their surfaces towards each
-/// other. The ray runs between the *offset* points: measuring the length from the
-/// unshifted point instead makes the ray reach the light's own surface at grazing angles.
+/// A shadow ray between two points, each pushed off its surface (`n = 0` for a point in
+/// a medium) towards the other. The ray runs between the *offset* points: measuring the
+/// length from the unshifted point instead makes the ray reach the light's own surface at
+/// grazing angles.
 #[inline]
 pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, nq: Vec3, wi: Vec3) -> Ray {
     let org = p + n * (spawn_eps(p) * n.dot(wi).signum());
@@ -115,47 +131,211 @@ pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, nq: Vec3, wi: Vec3) -> Ray {
     }
 }
 
+/// The medium on the other side of geometry `geom` for a ray travelling along `dir`
+/// (meshes bounding a medium face outwards).
+#[inline]
+fn medium_after_crossing(scene: &Scene, geom: u32, ng: Vec3, dir: Vec3) -> Option<u32> {
+    let g = &scene.geometries[geom as usize];
+    if dir.dot(ng) < 0.0 {
+        g.interior
+    } else {
+        g.exterior
+    }
+}
+
+/// Transmittance and tracking pass probabilities along a shadow ray: `None` if something
+/// opaque blocks it. Index-matched medium boundaries are crossed; every medium segment
+/// multiplies the transmittance e^{−σ̂_t d} (per lane) and, for MIS, the probability that
+/// `tracking` would have passed the segment with lane j as hero.
+fn shadow_transmittance(
+    scene: &Scene,
+    mut ray: Ray,
+    mut medium: Option<u32>,
+    lambda: Vec4,
+    tracking: Tracking,
+    stats: &mut PathStats,
+) -> Option<(Vec4, Vec4)> {
+    stats.rays += 1;
+    if !scene.has_media() {
+        return if scene.accel.occluded1(&ray) { None } else { Some((Vec4::ONE, Vec4::ONE)) };
+    }
+    let mut tr = Vec4::ONE;
+    let mut pass = Vec4::ONE;
+    for _ in 0..64 {
+        let hit = scene.accel.intersect1(&ray);
+        let seg = hit.map_or(ray.tfar, |h| h.t);
+        if let Some(m) = medium {
+            let med = &scene.media[m as usize];
+            let (st, ss) = (med.sigma_t_hat(lambda), med.sigma_s_hat(lambda));
+            let len = seg * ray.dir.length();
+            tr *= tracking::transmittance(st, len);
+            pass *= tracking::prob_surface(tracking, st, ss, len);
+        }
+        let Some(h) = hit else { return Some((tr, pass)) };
+        let g = &scene.geometries[h.geom_id as usize];
+        if !g.is_null_interface() {
+            return None;
+        }
+        let ng = h.ng.normalize();
+        medium = medium_after_crossing(scene, h.geom_id, ng, ray.dir);
+        let p = ray.org + ray.dir * h.t;
+        let eps = spawn_eps(p);
+        let org = p + ng * (eps * ng.dot(ray.dir).signum());
+        let rest = ray.tfar - h.t - eps;
+        if rest <= 0.0 {
+            return Some((tr, pass));
+        }
+        ray = Ray { org, dir: ray.dir, tnear: 0.0, tfar: rest };
+        stats.rays += 1;
+    }
+    None
+}
+
+/// A vertex that BSDF or phase sampling left, remembered for MIS when the continuation
+/// lands on a light.
+#[derive(Clone, Copy)]
+struct PrevVertex {
+    /// Per-lane pdf (solid angle) of the sampled direction.
+    pdf_dir: Vec4,
+    /// The prefix ratios before that sample.
+    ratio: Vec4,
+    /// The vertex.
+    p: Vec3,
+    /// Per-lane probability that tracking passed every medium segment since.
+    pass: Vec4,
+}
+
 /// Radiance along a camera ray at the wavelengths `lambda`, already weighted by the
 /// balance heuristic over lanes: summing `xyz(λ_k)·L_k / pdf(λ)` over the lanes gives an
-/// unbiased XYZ estimate.
+/// unbiased XYZ estimate (at the camera's wavelengths, whatever shifts happen later).
 ///
-/// `shift_rng` draws the wavelength shifts at fluorescent vertices: a stream of its own,
+/// `shift_rng` draws the wavelength shifts at fluorescent events: a stream of its own,
 /// so that a scene renders with the same main random numbers whether or not a material
 /// fluoresces (a diagonal-only re-radiation matrix then gives the plain diffuse image).
-#[allow(clippy::too_many_arguments)]
 pub fn radiance(
     scene: &Scene,
     camera_ray: Ray,
     mut lambda: Vec4,
-    spectral: Spectral,
-    shifting: Shifting,
-    max_depth: i32,
+    opts: &PathOptions,
     rng: &mut Pcg32,
     shift_rng: &mut LazyStream,
     stats: &mut PathStats,
 ) -> Vec4 {
-    let mut beta = match spectral {
+    let mut beta = match opts.spectral {
         Spectral::Hwss => Vec4::ONE,
         Spectral::Mono => Vec4::X,
     };
+    let lanes = match opts.spectral {
+        Spectral::Hwss => opts.shifting,
+        Spectral::Mono => Shifting::Independent,
+    };
+    let max_depth = opts.max_depth;
     let mut ratio = beta;
     let mut l = Vec4::ZERO;
     let mut ray = camera_ray;
-    // After a non-specular bounce: the per-lane BSDF pdfs of the sampled direction and the
-    // prefix ratios before it, for MIS when the ray lands on a light.
-    let mut prev_bsdf: Option<(Vec4, Vec4, Vec3)> = None;
+    let mut prev: Option<PrevVertex> = None;
     let mut depth: i32 = 0;
     let lights = &scene.lights;
     let mut le_cache = EmissionCache::default();
+    let mut medium = scene.camera_medium;
+    let mut crossings = 0u32;
 
     loop {
         stats.rays += 1;
-        let Some(hit) = scene.accel.intersect1(&ray) else {
-            break;
-        };
-        depth += 1;
+        let hit = scene.accel.intersect1(&ray);
+
+        // Distance sampling in the current medium, hero-driven with per-lane pdfs.
+        if let Some(m) = medium {
+            let Some(h) = hit else { break }; // left a medium that is not closed
+            let med = &scene.media[m as usize];
+            let (st, ss) = (med.sigma_t_hat(lambda), med.sigma_s_hat(lambda));
+            let d = h.t * ray.dir.length();
+            match tracking::sample_distance(opts.tracking, st, ss, d, rng.next_f32()) {
+                DistanceSample::Collision { t } => {
+                    let pdf = tracking::pdf_collision(opts.tracking, st, ss, d, t);
+                    if pdf.x <= 0.0 {
+                        break;
+                    }
+                    beta *= tracking::transmittance(st, t) / pdf.x;
+                    ratio *= pdf / pdf.x;
+                    depth += 1;
+                    if max_depth >= 0 && depth >= max_depth {
+                        break;
+                    }
+                    let p = ray.org + ray.dir.normalize() * t;
+                    let wo = -ray.dir.normalize();
+                    // The scattering coefficient σ̂_s enters through the shift sample
+                    // (its value over its pdf is σ̂_s: elastic or fluorescent).
+                    if !shift_wavelengths(med, lanes, &mut lambda, &mut beta, &mut ratio, shift_rng.get()) {
+                        break;
+                    }
+                    le_cache = EmissionCache::default();
+                    let phase = med.phase();
+                    // Next-event estimation through the medium, MIS against phase sampling.
+                    let u_light = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+                    if let Some(ls) = lights.sample(u_light) {
+                        let to = ls.p - p;
+                        let d2 = to.length_squared();
+                        let dist = d2.sqrt();
+                        let wi = to / dist;
+                        let cos_l = ls.n.dot(-wi);
+                        if dist > 0.0 && lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
+                            let le = le_cache.get(ls.emitter, lambda, lights);
+                            let f = phase.eval_dirs(wo, wi);
+                            let pdf_dir = phase.pdf(wo, wi);
+                            let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
+                            if let Some((tr, pass)) =
+                                shadow_transmittance(scene, sray, Some(m), lambda, opts.tracking, stats)
+                            {
+                                let p_light = ls.pdf_area * d2 / cos_l.abs();
+                                let denom = (ratio * (Vec4::splat(p_light) + pass * pdf_dir)).element_sum();
+                                l += beta * tr * le * (f / denom);
+                            }
+                        }
+                    }
+                    let (wi, pdf_dir) = phase.sample(wo, rng.next_2d());
+                    if pdf_dir <= 0.0 {
+                        break;
+                    }
+                    // Phase sampling is exact (f = pdf) and the same for every lane.
+                    prev = Some(PrevVertex { pdf_dir: Vec4::splat(pdf_dir), ratio, p, pass: Vec4::ONE });
+                    if !russian_roulette(&mut beta, depth, rng) {
+                        break;
+                    }
+                    ray = Ray::new(p, wi);
+                    continue;
+                }
+                DistanceSample::Surface => {
+                    let ps = tracking::prob_surface(opts.tracking, st, ss, d);
+                    if ps.x <= 0.0 {
+                        break;
+                    }
+                    beta *= tracking::transmittance(st, d) / ps.x;
+                    ratio *= ps / ps.x;
+                    if let Some(pv) = prev.as_mut() {
+                        pv.pass *= ps;
+                    }
+                }
+            }
+        }
+
+        let Some(hit) = hit else { break };
         let p = ray.org + ray.dir * hit.t;
         let ng = hit.ng.normalize();
+        let geom = &scene.geometries[hit.geom_id as usize];
+
+        // An index-matched medium boundary: cross it without scattering.
+        if geom.is_null_interface() {
+            crossings += 1;
+            if crossings > 256 {
+                break;
+            }
+            medium = medium_after_crossing(scene, hit.geom_id, ng, ray.dir);
+            let eps = spawn_eps(p);
+            ray = Ray::new(p + ng * (eps * ng.dot(ray.dir).signum()), ray.dir);
+            continue;
+        }
+        depth += 1;
         let wo = -ray.dir;
 
         if let Some(e) = lights.emitter_index_of(hit.geom_id) {
@@ -165,16 +345,17 @@ pub fn radiance(
                 Vec4::ZERO
             };
             if le != Vec4::ZERO {
-                match prev_bsdf {
+                match prev {
                     None => l += beta * le / ratio.element_sum(),
-                    Some((pdf_bsdf, ratio_prev, p_prev)) => {
-                        let d2 = (p - p_prev).length_squared();
+                    Some(pv) => {
+                        let d2 = (p - pv.p).length_squared();
                         let cos_l = ng.dot(wo).abs();
-                        let p_light =
-                            lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
-                        let denom = (ratio_prev * (pdf_bsdf + Vec4::splat(p_light))).element_sum();
-                        // beta already holds f/p_bsdf,0; put the hero's pdf back.
-                        l += beta * le * (pdf_bsdf.x / denom);
+                        let p_light = lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
+                        let p_dir = pv.pdf_dir * pv.pass;
+                        let denom = (pv.ratio * (p_dir + Vec4::splat(p_light))).element_sum();
+                        // beta already holds f/p_dir,0 (and the passes' T/P_0): put the
+                        // hero's pdf back.
+                        l += beta * le * (p_dir.x / denom);
                     }
                 }
             }
@@ -182,17 +363,13 @@ pub fn radiance(
         if max_depth >= 0 && depth >= max_depth {
             break;
         }
-        let Some(mat_id) = scene.geometries[hit.geom_id as usize].material else {
+        let Some(mat_id) = geom.material else {
             break;
         };
         let mat = &scene.materials[mat_id as usize];
         if let Material::FluorescentDiffuse { reradiation } = mat {
-            let lanes = match spectral {
-                Spectral::Hwss => shifting,
-                Spectral::Mono => Shifting::Independent,
-            };
             if !shift_wavelengths(
-                reradiation,
+                reradiation.as_ref(),
                 lanes,
                 &mut lambda,
                 &mut beta,
@@ -214,20 +391,23 @@ pub fn radiance(
                 let d = d2.sqrt();
                 let wi = to / d;
                 let cos_l = ls.n.dot(-wi);
-                let le = if lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
-                    le_cache.get(ls.emitter, lambda, lights)
-                } else {
-                    Vec4::ZERO
-                };
-                if le != Vec4::ZERO && d > 0.0 {
+                if d > 0.0 && lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
                     let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi);
                     if f_cos != Vec4::ZERO {
+                        let le = le_cache.get(ls.emitter, lambda, lights);
                         let p_light = ls.pdf_area * d2 / cos_l.abs();
-                        let shadow = shadow_ray(p, ng, ls.p, ls.n, wi);
-                        stats.rays += 1;
-                        if !scene.accel.occluded1(&shadow) {
-                            let denom = (ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();
-                            l += beta * f_cos * le / denom;
+                        let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
+                        // Leaving the surface towards wi: which medium is the shadow ray in?
+                        let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
+                            medium
+                        } else {
+                            medium_after_crossing(scene, hit.geom_id, ng, wi)
+                        };
+                        if let Some((tr, pass)) =
+                            shadow_transmittance(scene, sray, m_out, lambda, opts.tracking, stats)
+                        {
+                            let denom = (ratio * (Vec4::splat(p_light) + pdf_bsdf * pass)).element_sum();
+                            l += beta * tr * f_cos * le / denom;
                         }
                     }
                 }
@@ -247,27 +427,80 @@ pub fn radiance(
         let ratio_prev = ratio;
         beta *= bs.f_cos / p0;
         ratio *= bs.pdf / p0;
-        prev_bsdf = if bs.specular {
+        prev = if bs.specular {
             None
         } else {
-            Some((bs.pdf, ratio_prev, p))
+            Some(PrevVertex { pdf_dir: bs.pdf, ratio: ratio_prev, p, pass: Vec4::ONE })
         };
         if beta == Vec4::ZERO {
             break;
         }
-
-        // Russian roulette on the weighted throughput, after a few bounces.
-        if depth >= 3 {
-            let q = beta.max_element().min(0.95);
-            if rng.next_f32() >= q {
-                break;
-            }
-            beta /= q;
+        // Crossing the surface (refraction) changes the medium.
+        if ng.dot(bs.wi) * ng.dot(wo) < 0.0 {
+            medium = medium_after_crossing(scene, hit.geom_id, ng, bs.wi);
+        }
+        if !russian_roulette(&mut beta, depth, rng) {
+            break;
         }
         let eps = spawn_eps(p);
         ray = Ray::new(p + ng * eps * ng.dot(bs.wi).signum(), bs.wi);
     }
     l
+}
+
+/// Russian roulette on the weighted throughput after the third bounce: `false` ends the
+/// path, otherwise `beta` is divided by the survival probability.
+#[inline]
+fn russian_roulette(beta: &mut Vec4, depth: i32, rng: &mut Pcg32) -> bool {
+    if depth >= 3 {
+        let q = beta.max_element().min(0.95);
+        if rng.next_f32() >= q {
+            return false;
+        }
+        *beta /= q;
+    }
+    true
+}
+
+/// A wavelength-shifting scattering event: re-radiation at a fluorescent surface (D =
+/// reflectance) or scattering in a medium (D = σ_s, F from its dye).
+pub trait ShiftModel {
+    /// Samples an input wavelength for output `lambda_o`.
+    fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<crate::fluoro::ShiftSample>;
+    /// The pdf [`ShiftModel::sample_input`] gives that event.
+    fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32;
+    /// The value of that event.
+    fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32;
+}
+
+impl ShiftModel for Reradiation {
+    #[inline]
+    fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<crate::fluoro::ShiftSample> {
+        Reradiation::sample_input(self, lambda_o, u_choice, u_lambda)
+    }
+    #[inline]
+    fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        Reradiation::pdf_input(self, lambda_i, lambda_o, kept)
+    }
+    #[inline]
+    fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        Reradiation::value(self, lambda_i, lambda_o, kept)
+    }
+}
+
+impl ShiftModel for Homogeneous {
+    #[inline]
+    fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<crate::fluoro::ShiftSample> {
+        self.sample_shift(lambda_o, u_choice, u_lambda)
+    }
+    #[inline]
+    fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        self.shift_pdf(lambda_i, lambda_o, kept)
+    }
+    #[inline]
+    fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        self.shift_value(lambda_i, lambda_o, kept)
+    }
 }
 
 /// Samples the input wavelengths at a fluorescent vertex of a camera path and updates the
@@ -282,7 +515,7 @@ pub fn radiance(
 ///   shifted ones move by the same Δλ); lane k's technique has pdf q_k(λ_k+Δλ | λ_k) —
 ///   the keep probability for a kept wavelength, a density for a shift, never mixed.
 pub fn shift_wavelengths(
-    rr: &Reradiation,
+    rr: &(impl ShiftModel + ?Sized),
     mode: Shifting,
     lambda: &mut Vec4,
     beta: &mut Vec4,

@@ -4,7 +4,8 @@
 //! pixel's samples are accumulated in order by one thread, so the image is the same
 //! whatever the number of threads.
 
-use super::{radiance, PathStats, Shifting, Spectral};
+use super::{radiance, PathOptions, PathStats, Shifting, Spectral};
+use crate::medium::tracking::Tracking;
 use crate::color;
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
@@ -30,6 +31,9 @@ pub struct RenderOptions {
     pub spectral: Spectral,
     /// Lane shifting at fluorescent vertices (HWSS).
     pub shifting: Shifting,
+    /// Distance sampling in media (`None`: the scene's default, see
+    /// [`Scene::default_tracking`]).
+    pub tracking: Option<Tracking>,
     /// Worker threads (0 = one per core).
     pub threads: usize,
 }
@@ -118,17 +122,13 @@ pub fn pixel_sample(
     };
     // The shift stream: a second, independent stream of the same pixel sample.
     let mut shift_rng = LazyStream::new(opts.seed, pixel, sample as u64);
-    let l = radiance(
-        scene,
-        ray,
-        wl.lambda,
-        opts.spectral,
-        opts.shifting,
-        opts.max_depth,
-        &mut rng,
-        &mut shift_rng,
-        stats,
-    );
+    let path = PathOptions {
+        spectral: opts.spectral,
+        shifting: opts.shifting,
+        tracking: opts.tracking.unwrap_or_else(|| scene.default_tracking().0),
+        max_depth: opts.max_depth,
+    };
+    let l = radiance(scene, ray, wl.lambda, &path, &mut rng, &mut shift_rng, stats);
     let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(wl.lambda, l));
     if rgb.is_finite() {
         Some(rgb)

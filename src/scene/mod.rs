@@ -12,6 +12,8 @@ use crate::accel;
 use crate::bsdf::{Ior, Material};
 use crate::camera::Camera;
 use crate::fluoro::Reradiation;
+use crate::medium::tracking::Tracking;
+use crate::medium::{HenyeyGreenstein, Homogeneous};
 use crate::light::{Emitter, Lights};
 use crate::spectrum::{self, Spectrum, Tabulated};
 use desc::{IorDesc, SceneDesc, SpectrumDesc};
@@ -30,6 +32,20 @@ pub struct Geometry {
     pub material: Option<u32>,
     /// Number of triangles.
     pub triangles: usize,
+    /// The medium inside this (closed, outward-facing) mesh.
+    pub interior: Option<u32>,
+    /// The medium outside it.
+    pub exterior: Option<u32>,
+    /// An index-matched medium boundary: no material, no emission, rays pass.
+    pub null_interface: bool,
+}
+
+impl Geometry {
+    /// Whether rays cross this surface unchanged (only the medium changes).
+    #[inline]
+    pub fn is_null_interface(&self) -> bool {
+        self.null_interface
+    }
 }
 
 /// A loaded scene.
@@ -50,6 +66,12 @@ pub struct Scene {
     pub geometries: Vec<Geometry>,
     /// Area lights.
     pub lights: Lights,
+    /// Homogeneous media, by index.
+    pub media: Vec<Homogeneous>,
+    /// Medium names, by index.
+    pub medium_names: Vec<String>,
+    /// The medium the camera is in.
+    pub camera_medium: Option<u32>,
     /// Axis-aligned bounds of all geometry.
     pub bounds: (Vec3, Vec3),
     /// Things worth telling the user that are not errors (clamped matrix entries, energy
@@ -108,6 +130,30 @@ impl Scene {
         self.materials
             .iter()
             .any(|m| matches!(m, Material::Dielectric { ior, .. } if ior.is_dispersive()))
+    }
+
+    /// Whether any medium is present (then shadow rays look for medium boundaries).
+    #[inline]
+    pub fn has_media(&self) -> bool {
+        !self.media.is_empty()
+    }
+
+    /// Whether any medium carries a fluorescent dye.
+    pub fn has_fluorescent_media(&self) -> bool {
+        self.media.iter().any(|m| m.is_fluorescent())
+    }
+
+    /// The tracking method used when none is asked for: classic where no medium
+    /// fluoresces, fluorescence-aware where one does, and why.
+    pub fn default_tracking(&self) -> (Tracking, &'static str) {
+        if self.has_fluorescent_media() {
+            (
+                Tracking::FluoAware,
+                "a medium fluoresces: classic tracking would miss re-emission where σ̂_t is small",
+            )
+        } else {
+            (Tracking::Classic, "no medium fluoresces: classic tracking is unbiased and cheapest")
+        }
     }
 
     /// Whether any material fluoresces (then the shifting method matters).
@@ -180,6 +226,25 @@ impl Builder<'_> {
             ));
         }
 
+        let mut media = Vec::new();
+        let mut medium_names = Vec::new();
+        let mut medium_index = BTreeMap::new();
+        for (name, m) in &d.media {
+            let key = format!("media.{name}");
+            medium_index.insert(name.clone(), media.len() as u32);
+            media.push(self.medium(&key, m)?);
+            medium_names.push(name.clone());
+        }
+        let lookup_medium = |key: &str, name: &Option<String>| -> Result<Option<u32>, String> {
+            match name {
+                None => Ok(None),
+                Some(n) => medium_index.get(n).copied().map(Some).ok_or_else(|| {
+                    format!("{key}: no medium named {n:?} (defined: {})", list(medium_index.keys()))
+                }),
+            }
+        };
+        let camera_medium = lookup_medium("camera.medium", &c.medium)?;
+
         let mut materials = Vec::new();
         let mut material_names = Vec::new();
         let mut material_index = BTreeMap::new();
@@ -207,9 +272,21 @@ impl Builder<'_> {
                         list(material_index.keys())
                     )
                 })?),
-                None if s.emission.is_some() => None,
+                None if s.emission.is_some() || s.interior.is_some() || s.exterior.is_some() => None,
                 None => return Err(format!("{key}: missing key `material`")),
             };
+            let interior = lookup_medium(&format!("{key}.interior"), &s.interior)?;
+            let exterior = lookup_medium(&format!("{key}.exterior"), &s.exterior)?;
+            let null_interface = material.is_none() && s.emission.is_none() && (interior.is_some() || exterior.is_some());
+            if let Some(m) = material {
+                if (interior.is_some() || exterior.is_some())
+                    && !matches!(materials[m as usize], Material::Dielectric { .. })
+                {
+                    return Err(format!(
+                        "{key}.material: a medium boundary must be a dielectric or have no material (index-matched)"
+                    ));
+                }
+            }
             let emitter = match &s.emission {
                 Some(e) => {
                     let scale = e.scale.unwrap_or(1.0);
@@ -259,6 +336,9 @@ impl Builder<'_> {
                     },
                     material,
                     triangles: mesh.indices.len(),
+                    interior,
+                    exterior,
+                    null_interface,
                 });
             }
         }
@@ -276,9 +356,66 @@ impl Builder<'_> {
             material_names,
             geometries,
             lights,
+            media,
+            medium_names,
+            camera_medium,
             bounds: (lo, hi),
             warnings: self.warnings,
         })
+    }
+
+    fn medium(&self, key: &str, m: &desc::MediumDesc) -> Result<Homogeneous, String> {
+        let coef = |k: &str, s: &SpectrumDesc| self.spectrum(&format!("{key}.{k}"), s, Some(Range::NonNegative));
+        let (sigma_a, sigma_s) = match (&m.sigma_a, &m.sigma_s, &m.albedo, &m.sigma_t) {
+            (a, s, None, None) => (
+                a.as_ref().map(|a| coef("sigma_a", a)).transpose()?.unwrap_or(Spectrum::Constant(0.0)),
+                s.as_ref().map(|s| coef("sigma_s", s)).transpose()?.unwrap_or(Spectrum::Constant(0.0)),
+            ),
+            (None, None, Some(al), Some(t)) => {
+                let albedo = self.spectrum(&format!("{key}.albedo"), al, Some(Range::Unit))?;
+                let sigma_t = coef("sigma_t", t)?;
+                let sa = combine(&albedo, &sigma_t, |al, st| (1.0 - al) * st)?;
+                let ss = combine(&albedo, &sigma_t, |al, st| al * st)?;
+                (sa, ss)
+            }
+            _ => {
+                return Err(format!(
+                    "{key}: expected `sigma_a` and/or `sigma_s`, or `albedo` together with `sigma_t`"
+                ))
+            }
+        };
+        let g = m.g.unwrap_or(0.0);
+        if !(g.is_finite() && g > -1.0 && g < 1.0) {
+            return Err(format!("{key}.g: expected a number in (−1, 1), found {g}"));
+        }
+        let dye = match &m.dye {
+            None => None,
+            Some(d) => {
+                let a = coef("dye.absorption", &d.absorption)?;
+                let e = self.spectrum(&format!("{key}.dye.emission"), &d.emission, Some(Range::NonNegative))?;
+                let c = d.concentration.unwrap_or(1.0);
+                if !(c.is_finite() && c >= 0.0) {
+                    return Err(format!("{key}.dye.concentration: expected a non-negative number, found {c}"));
+                }
+                if !(0.0..=1.0).contains(&d.quantum_yield) {
+                    return Err(format!(
+                        "{key}.dye.quantum_yield: expected a number in [0, 1], found {}",
+                        d.quantum_yield
+                    ));
+                }
+                let cell = d.cell_nm.unwrap_or(2.0);
+                if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
+                    return Err(format!("{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"));
+                }
+                let absorption = if c == 1.0 { a } else { Spectrum::Scaled(Box::new(a), c) };
+                Some((absorption, e, d.quantum_yield, cell))
+            }
+        };
+        let medium = Homogeneous::new(sigma_a, sigma_s, HenyeyGreenstein::new(g));
+        match dye {
+            None => Ok(medium),
+            Some((a, e, qy, cell)) => medium.with_dye(&a, &e, qy, cell).map_err(|e| format!("{key}.dye: {e}")),
+        }
     }
 
     fn resolve(&self, file: &str) -> PathBuf {
@@ -686,6 +823,17 @@ fn ior_from(key: &str, d: &IorDesc) -> Result<Ior, String> {
         }
     }
     Ok(ior)
+}
+
+/// `f(a, b)` as a spectrum: exact for two constants, otherwise tabulated every nanometre
+/// over the rendered range.
+fn combine(a: &Spectrum, b: &Spectrum, f: impl Fn(f32, f32) -> f32) -> Result<Spectrum, String> {
+    if let (Some(x), Some(y)) = (a.is_constant(), b.is_constant()) {
+        return Ok(Spectrum::Constant(f(x, y)));
+    }
+    let w: Vec<f32> = (0..=470).map(|i| spectrum::LAMBDA_MIN + i as f32).collect();
+    let v: Vec<f32> = w.iter().map(|&l| f(a.eval(l), b.eval(l))).collect();
+    Ok(Spectrum::Tabulated(Tabulated::new(w, v)?))
 }
 
 fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {

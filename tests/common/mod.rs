@@ -53,6 +53,7 @@ pub fn render_film(
         max_depth,
         spectral,
         shifting: stokes::integrator::Shifting::Independent,
+        tracking: None,
         threads,
     };
     let r = render(scene, &opts, &|| {}).unwrap();

@@ -1,0 +1,325 @@
+//! A homogeneous medium, optionally with a fluorescent dye dissolved in it.
+//!
+//! # Units
+//! Coefficients σ are in 1/scene-unit (the unit of the scene's coordinates). The dye's
+//! re-emission density F(λi, λo) is per scene-unit and per nm of λi; σ_se and σ_sa are in
+//! 1/scene-unit. A shift sample's `value` is σ_s(λo) for a kept wavelength and F(λi, λo) for
+//! a shift, and value/pdf = σ̂_s(λo) either way.
+//!
+//! # The dye and σ_sa
+//! The dye is given by its absorption coefficient σ_dye(λ) = concentration × absorption
+//! spectrum (1/scene-unit), an emission shape E and a quantum yield Φ. It re-emits with the
+//! convention of [`Reradiation::from_dye`], taking its "absorbed fraction" A to be σ_dye:
+//!
+//! F(λi, λo) = Φ · σ_dye(λi) · E(λo) · [λo > λi] / ∫_{λ' > λi} E(λ') dλ'
+//!
+//! on the cells of `cell_nm` nm (σ_dye and E at the cell centres). Hence the out-shifting
+//! coefficient is σ_sa(λ) = Φ·σ_dye(c) where c is the centre of λ's cell and some emission
+//! lies in a cell above it, and 0 elsewhere: σ_sa ≤ Φ·σ_dye up to the discretisation of
+//! σ_dye over a cell. The rest of the dye's absorption, (1 − Φ)·σ_dye, and all of it where
+//! nothing can be emitted above λ, is lost.
+//!
+//! On a camera path every absorption by the dye removes light from λ (either lost or moved
+//! to a longer wavelength), so the dye adds its full σ_dye(λ), evaluated continuously at λ,
+//! to the extinction:
+//!
+//! σ̂_t(λ) = σ_a(λ) + σ_s(λ) + σ_dye(λ),   σ̂_s(λ) = σ_s(λ) + σ_se(λ).
+//!
+//! (In DESIGN.md §5's notation σ̂_t = σ_a' + σ_s + σ_sa with σ_a' = σ_a + σ_dye − σ_sa the
+//! absorption that does not re-emit.) σ̂_s may exceed σ̂_t: in the emission band outside the
+//! absorption band σ̂_t can even be 0 while σ̂_s > 0.
+//!
+//! [`Reradiation::from_dye`] takes A as a fraction ≤ 1, but a coefficient may exceed 1.
+//! Since F is linear in A and the shift-sampling CDFs do not depend on its scale, the dye is
+//! stored as a [`Reradiation`] built from σ_dye/s with s = max(1, max σ_dye), whose diagonal
+//! is σ_s/s; σ_se, σ_sa and shift values are multiplied back by s, pdfs are unchanged.
+
+use super::phase::HenyeyGreenstein;
+use crate::fluoro::{Reradiation, ShiftSample};
+use crate::spectrum::Spectrum;
+use glam::Vec4;
+
+/// A coefficient as used here: negative and NaN count as 0.
+#[inline]
+fn nonneg(x: f32) -> f32 {
+    x.max(0.0)
+}
+
+/// [`nonneg`] per lane.
+#[inline]
+fn nonneg4(v: Vec4) -> Vec4 {
+    Vec4::from_array(v.to_array().map(nonneg))
+}
+
+/// The fluorescent part of a medium.
+#[derive(Clone, Debug)]
+struct Dye {
+    /// σ_dye (1/scene-unit): all of it is extinction on camera paths.
+    sigma_dye: Spectrum,
+    quantum_yield: f32,
+    /// F/`scale` with diagonal σ_s/`scale` (see the module docs).
+    shift: Reradiation,
+    /// s ≥ 1: the factor that brings the stored matrix back to 1/scene-unit.
+    scale: f32,
+}
+
+/// A homogeneous medium: absorption σ_a, elastic scattering σ_s with a Henyey–Greenstein
+/// phase function, and optionally a fluorescent dye (module docs).
+#[derive(Clone, Debug)]
+pub struct Homogeneous {
+    sigma_a: Spectrum,
+    sigma_s: Spectrum,
+    phase: HenyeyGreenstein,
+    dye: Option<Dye>,
+}
+
+impl Homogeneous {
+    /// A non-fluorescent medium from its absorption and scattering coefficients
+    /// (1/scene-unit; negative or NaN values count as 0).
+    pub fn new(sigma_a: Spectrum, sigma_s: Spectrum, phase: HenyeyGreenstein) -> Homogeneous {
+        Homogeneous {
+            sigma_a,
+            sigma_s,
+            phase,
+            dye: None,
+        }
+    }
+
+    /// A grey medium from its single-scattering albedo (clamped to [0, 1]) and extinction
+    /// coefficient σ_t (1/scene-unit): σ_s = albedo·σ_t, σ_a = (1 − albedo)·σ_t.
+    pub fn from_albedo(albedo: f32, sigma_t: f32, phase: HenyeyGreenstein) -> Homogeneous {
+        let a = if albedo.is_nan() {
+            0.0
+        } else {
+            albedo.clamp(0.0, 1.0)
+        };
+        let st = nonneg(sigma_t);
+        Homogeneous::new(
+            Spectrum::Constant((1.0 - a) * st),
+            Spectrum::Constant(a * st),
+            phase,
+        )
+    }
+
+    /// Dissolves a fluorescent dye in the medium (replacing any previous one):
+    /// `absorption_coefficient` σ_dye (1/scene-unit, concentration × absorption spectrum,
+    /// may exceed 1), `emission` a non-negative shape (its scale does not matter),
+    /// `quantum_yield` Φ ∈ [0, 1], on cells of `cell_nm` nm (see
+    /// [`Reradiation::from_dye`]; the module docs say how σ_sa follows).
+    pub fn with_dye(
+        mut self,
+        absorption_coefficient: &Spectrum,
+        emission: &Spectrum,
+        quantum_yield: f32,
+        cell_nm: f32,
+    ) -> Result<Homogeneous, String> {
+        let peak = absorption_coefficient.max_value();
+        if !peak.is_finite() {
+            return Err(format!(
+                "dye absorption coefficient must be finite, found a maximum of {peak}"
+            ));
+        }
+        let scale = peak.max(1.0);
+        let fraction = absorption_coefficient.clone().scaled(1.0 / scale);
+        let shift = Reradiation::from_dye(
+            Spectrum::Constant(0.0),
+            &fraction,
+            emission,
+            quantum_yield,
+            cell_nm,
+        )
+        .map_err(|e| {
+            format!("fluorescent medium: {e} (absorption coefficient divided by {scale})")
+        })?
+        .with_diagonal(self.sigma_s.clone().scaled(1.0 / scale));
+        self.dye = Some(Dye {
+            sigma_dye: absorption_coefficient.clone(),
+            quantum_yield,
+            shift,
+            scale,
+        });
+        Ok(self)
+    }
+
+    /// The phase function of elastic scattering (fluorescent re-emission is taken to be
+    /// isotropic in the real world; this renderer uses the same lobe for both).
+    #[inline]
+    pub fn phase(&self) -> &HenyeyGreenstein {
+        &self.phase
+    }
+
+    /// Whether the medium shifts wavelengths (a dye with some F > 0 in range).
+    #[inline]
+    pub fn is_fluorescent(&self) -> bool {
+        self.dye.as_ref().is_some_and(|d| d.shift.is_fluorescent())
+    }
+
+    /// The dye's quantum yield Φ, if there is a dye.
+    pub fn quantum_yield(&self) -> Option<f32> {
+        self.dye.as_ref().map(|d| d.quantum_yield)
+    }
+
+    /// σ_a per lane (absorption not due to the dye).
+    #[inline]
+    pub fn sigma_a(&self, lambda: Vec4) -> Vec4 {
+        nonneg4(self.sigma_a.eval4(lambda))
+    }
+
+    /// σ_s per lane (elastic scattering).
+    #[inline]
+    pub fn sigma_s(&self, lambda: Vec4) -> Vec4 {
+        nonneg4(self.sigma_s.eval4(lambda))
+    }
+
+    /// σ_dye per lane (all absorption by the dye; 0 without a dye).
+    #[inline]
+    pub fn sigma_dye(&self, lambda: Vec4) -> Vec4 {
+        match &self.dye {
+            Some(d) => nonneg4(d.sigma_dye.eval4(lambda)),
+            None => Vec4::ZERO,
+        }
+    }
+
+    /// In-shifting σ_se(λ) = ∫ F(λi, λ) dλi per lane (0 without a dye).
+    #[inline]
+    pub fn sigma_se(&self, lambda: Vec4) -> Vec4 {
+        match &self.dye {
+            Some(d) => Vec4::from_array(lambda.to_array().map(|l| d.shift.sigma_se(l))) * d.scale,
+            None => Vec4::ZERO,
+        }
+    }
+
+    /// Out-shifting σ_sa(λ) = ∫ F(λ, λo) dλo per lane (0 without a dye); see the module
+    /// docs for its relation to σ_dye.
+    #[inline]
+    pub fn sigma_sa(&self, lambda: Vec4) -> Vec4 {
+        match &self.dye {
+            Some(d) => Vec4::from_array(lambda.to_array().map(|l| d.shift.sigma_sa(l))) * d.scale,
+            None => Vec4::ZERO,
+        }
+    }
+
+    /// Camera-path extinction σ̂_t = σ_a + σ_s + σ_dye per lane.
+    #[inline]
+    pub fn sigma_t_hat(&self, lambda: Vec4) -> Vec4 {
+        self.sigma_a(lambda) + self.sigma_s(lambda) + self.sigma_dye(lambda)
+    }
+
+    /// Camera-path scattering σ̂_s = σ_s + σ_se per lane: the value over pdf of
+    /// [`Self::sample_shift`].
+    #[inline]
+    pub fn sigma_s_hat(&self, lambda: Vec4) -> Vec4 {
+        self.sigma_s(lambda) + self.sigma_se(lambda)
+    }
+
+    /// Shift sampling at a real collision for one lane with output wavelength `lambda_o`:
+    /// keep λo (elastic scattering) with probability σ_s/σ̂_s (`u_choice` below it), else
+    /// draw λi ∝ F(·, λo) with `u_lambda`. value/pdf = σ̂_s(λo). `None` when σ̂_s(λo) = 0:
+    /// nothing scatters into λo and the lane cannot continue.
+    #[inline]
+    pub fn sample_shift(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<ShiftSample> {
+        match &self.dye {
+            Some(d) => d
+                .shift
+                .sample_input(lambda_o, u_choice, u_lambda)
+                .map(|s| ShiftSample {
+                    value: s.value * d.scale,
+                    ..s
+                }),
+            None => {
+                let s = nonneg(self.sigma_s.eval(lambda_o));
+                (s > 0.0 && s.is_finite()).then_some(ShiftSample {
+                    lambda_i: lambda_o,
+                    kept: true,
+                    pdf: 1.0,
+                    value: s,
+                })
+            }
+        }
+    }
+
+    /// The pdf with which [`Self::sample_shift`]`(lambda_o, ..)` produces the event: the
+    /// probability σ_s/σ̂_s when `kept` (`lambda_i` ignored), else the density
+    /// F(λi, λo)/σ̂_s (nm⁻¹). 0 when σ̂_s(λo) = 0.
+    #[inline]
+    pub fn shift_pdf(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        match &self.dye {
+            Some(d) => d.shift.pdf_input(lambda_i, lambda_o, kept),
+            None => {
+                let s = nonneg(self.sigma_s.eval(lambda_o));
+                if kept && s > 0.0 && s.is_finite() {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    /// The event's value: σ_s(λo) when `kept` (`lambda_i` ignored), else F(λi, λo)
+    /// (1/(scene-unit·nm)).
+    #[inline]
+    pub fn shift_value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        match &self.dye {
+            Some(d) => d.shift.value(lambda_i, lambda_o, kept) * d.scale,
+            None if kept => nonneg(self.sigma_s.eval(lambda_o)),
+            None => 0.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spectrum::Tabulated;
+
+    fn assert_traits<T: Send + Sync + Clone + std::fmt::Debug>() {}
+
+    #[test]
+    fn types_are_send_sync_clone_debug() {
+        assert_traits::<Homogeneous>();
+    }
+
+    #[test]
+    fn plain_medium_keeps_the_wavelength() {
+        let m = Homogeneous::from_albedo(0.25, 2.0, HenyeyGreenstein::isotropic());
+        let l = Vec4::new(400.0, 500.0, 600.0, 700.0);
+        assert_eq!(m.sigma_t_hat(l), Vec4::splat(2.0));
+        assert_eq!(m.sigma_s_hat(l), Vec4::splat(0.5));
+        assert!(!m.is_fluorescent());
+        let s = m.sample_shift(500.0, 0.9, 0.9).unwrap();
+        assert!(s.kept && s.lambda_i == 500.0 && s.value / s.pdf == 0.5);
+        assert_eq!(m.shift_pdf(500.0, 500.0, true), 1.0);
+        assert_eq!(m.shift_pdf(450.0, 500.0, false), 0.0);
+        let black = Homogeneous::from_albedo(0.0, 2.0, HenyeyGreenstein::isotropic());
+        assert!(black.sample_shift(500.0, 0.5, 0.5).is_none());
+    }
+
+    #[test]
+    fn dye_coefficient_above_one_is_accepted_and_scaled_back() {
+        let band = |a: f32, b: f32, v: f32| {
+            Spectrum::Tabulated(
+                Tabulated::new(vec![a - 1e-3, a, b, b + 1e-3], vec![0.0, v, v, 0.0]).unwrap(),
+            )
+        };
+        let m = Homogeneous::new(
+            Spectrum::Constant(0.0),
+            Spectrum::Constant(0.0),
+            HenyeyGreenstein::isotropic(),
+        )
+        .with_dye(&band(440.0, 480.0, 25.0), &band(500.0, 600.0, 1.0), 0.5, 10.0)
+        .unwrap();
+        assert!(m.is_fluorescent());
+        let l = Vec4::new(455.0, 520.0, 700.0, 400.0);
+        let sa = m.sigma_sa(l);
+        assert!((sa.x - 12.5).abs() < 1e-4, "{sa}");
+        assert_eq!(m.sigma_t_hat(l), Vec4::new(25.0, 0.0, 0.0, 0.0));
+        // All 40 nm of absorption feed 100 nm of emission: σ_se = 12.5·40/100 = 5.
+        let se = m.sigma_s_hat(l);
+        assert!((se.y - 5.0).abs() < 1e-4, "{se}");
+        let s = m.sample_shift(520.0, 0.5, 0.3).unwrap();
+        assert!(!s.kept && (440.0..480.0).contains(&s.lambda_i));
+        assert!((s.value / s.pdf - 5.0).abs() < 1e-4);
+        assert!(m.sample_shift(455.0, 0.5, 0.5).is_none());
+    }
+}

@@ -1,0 +1,30 @@
+//! Participating media: homogeneous media with an optional fluorescent dye, the
+//! Henyey–Greenstein phase function, and the three distance-tracking strategies of
+//! Mojzík, Fichet and Wilkie (EGSR 2018) for camera paths (DESIGN.md §5).
+//!
+//! - [`phase`]: [`HenyeyGreenstein`] (direction convention: `wo` points back along the
+//!   incoming ray, `wi` is the new direction, cos θ = −`wo`·`wi`, g > 0 forward).
+//! - [`homogeneous`]: [`Homogeneous`]: σ_a, σ_s, a phase function and an optional dye
+//!   (absorption coefficient σ_dye, emission shape, quantum yield); the camera-path
+//!   coefficients σ̂_t = σ_a + σ_s + σ_dye and σ̂_s = σ_s + σ_se; shift sampling at a
+//!   collision with value/pdf = σ̂_s.
+//! - [`tracking`]: [`Tracking`] (`classic`, `max`, `fluo-aware`) and the distance samplers
+//!   with their per-lane pdfs for the balance heuristic over the lanes.
+//!
+//! Units: every coefficient is in 1/scene-unit (the unit of the scene's coordinates),
+//! wavelengths in nm, the dye's F in 1/(scene-unit·nm).
+//!
+//! How the integrator uses them on a segment of length d inside a medium, with lane 0 the
+//! hero: `st = sigma_t_hat(λ)`, `ss = sigma_s_hat(λ)`, then [`tracking::sample_distance`];
+//! on a collision at t, `beta *= transmittance(st, t) / pdf.x` and `ratio *= pdf / pdf.x`
+//! with `pdf = pdf_collision(..)`, followed by a shift sample per lane (its value over pdf
+//! supplies σ̂_s) and a phase-function sample; at the surface the same with
+//! `prob_surface(..)` and `transmittance(st, d)`.
+
+pub mod homogeneous;
+pub mod phase;
+pub mod tracking;
+
+pub use homogeneous::Homogeneous;
+pub use phase::HenyeyGreenstein;
+pub use tracking::{DistanceSample, Tracking};
