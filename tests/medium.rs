@@ -101,7 +101,7 @@ fn chi2_p_value_matches_known_quantiles() {
     }
     // dof 2 is exponential: Q(1, x) = e^{−x}; both branches of gamma_q.
     for x in [0.3, 1.9, 7.0, 40.0] {
-        assert!((gamma_q(1.0, x) - (-x as f64).exp()).abs() < 1e-12);
+        assert!((gamma_q(1.0, x) - (-x).exp()).abs() < 1e-12);
     }
     assert!((chi2_p_value(3.0, 5) - 0.699_985_836).abs() < 1e-8);
 }
@@ -120,7 +120,10 @@ struct Chi2 {
 /// impossible event and gives p = 0.
 fn chi2_test(observed: &[u64], expected: &[f64]) -> Chi2 {
     assert_eq!(observed.len(), expected.len());
-    let impossible = observed.iter().zip(expected).any(|(&o, &e)| o > 0 && e <= 0.0);
+    let impossible = observed
+        .iter()
+        .zip(expected)
+        .any(|(&o, &e)| o > 0 && e <= 0.0);
     let mut bins: Vec<(f64, f64)> = Vec::new();
     let (mut pool_o, mut pool_e) = (0.0, 0.0);
     for (&o, &e) in observed.iter().zip(expected) {
@@ -271,7 +274,10 @@ fn hg_chi2(sampler_g: f32, pdf_g: f32, seed: u64) -> Chi2 {
 fn hg_sampling_chi_square() {
     for (k, g) in HG_G.into_iter().enumerate() {
         let r = hg_chi2(g, g, 100 + k as u64);
-        println!("HG g = {g}: χ² = {:.1}, dof {}, p = {:.3}", r.stat, r.dof, r.p);
+        println!(
+            "HG g = {g}: χ² = {:.1}, dof {}, p = {:.3}",
+            r.stat, r.dof, r.p
+        );
         assert!(r.p > ALPHA, "g = {g}: {r:?}");
     }
 }
@@ -291,11 +297,18 @@ fn hg_sample_pdf_matches_pdf_and_eval() {
         for _ in 0..20_000 {
             let wo = some_wo(&mut rng);
             let (wi, pdf) = p.sample(wo, rng.next_2d());
-            assert!((wi.length() - 1.0).abs() < 1e-5, "g = {g}: |wi| = {}", wi.length());
+            assert!(
+                (wi.length() - 1.0).abs() < 1e-5,
+                "g = {g}: |wi| = {}",
+                wi.length()
+            );
             let again = p.pdf(wo, wi);
             assert_eq!(again, p.eval_dirs(wo, wi));
             let from_cos = p.eval(-wo.dot(wi));
-            assert!((from_cos / again - 1.0).abs() < 0.05, "g = {g}: {from_cos} vs {again}");
+            assert!(
+                (from_cos / again - 1.0).abs() < 0.05,
+                "g = {g}: {from_cos} vs {again}"
+            );
             worst = worst.max((pdf / again - 1.0).abs());
         }
         // The pdf from the sampled cos θ and the one from the built direction differ by the
@@ -406,7 +419,10 @@ fn distance_chi2(
     for _ in 0..n {
         match sample_distance(method, vt, vs, d, rng.next_f32()) {
             DistanceSample::Collision { t } => {
-                assert!((0.0..d).contains(&t), "{method:?}: t = {t} outside [0, {d})");
+                assert!(
+                    (0.0..d).contains(&t),
+                    "{method:?}: t = {t} outside [0, {d})"
+                );
                 let i = edges.partition_point(|&e| e <= t as f64).clamp(1, k) - 1;
                 counts[i] += 1;
             }
@@ -451,7 +467,10 @@ fn classic_tracking_never_collides_where_sigma_t_is_zero() {
         );
     }
     assert_eq!(prob_surface_lane(Tracking::Classic, 0.0, 1.5, 1.0), 1.0);
-    assert_eq!(pdf_collision_lane(Tracking::Classic, 0.0, 1.5, 1.0, 0.5), 0.0);
+    assert_eq!(
+        pdf_collision_lane(Tracking::Classic, 0.0, 1.5, 1.0, 0.5),
+        0.0
+    );
     // Max and fluorescence-aware do collide there.
     assert!(prob_surface_lane(Tracking::Max, 0.0, 1.5, 1.0) < 0.25);
     assert!((prob_surface_lane(Tracking::FluoAware, 0.0, 1.5, 1.0) - 0.4).abs() < 1e-6);
@@ -505,7 +524,10 @@ fn distance_pdfs_match_the_closed_forms() {
         ];
         for (m, want) in METHODS.into_iter().zip(surf) {
             let got = prob_surface_lane(m, st, ss, d) as f64;
-            assert!(close(got, want), "{m:?}, {label}: P(surface) {got} vs {want}");
+            assert!(
+                close(got, want),
+                "{m:?}, {label}: P(surface) {got} vs {want}"
+            );
         }
         for _ in 0..100 {
             let t = rng.next_f32() * d;
@@ -518,7 +540,10 @@ fn distance_pdfs_match_the_closed_forms() {
             for (m, w) in METHODS.into_iter().zip(want) {
                 let got = pdf_collision_lane(m, st, ss, d, t) as f64;
                 let tol = 1e-5 * w.abs() + 1e-37;
-                assert!((got - w).abs() <= tol, "{m:?}, {label}, t = {t}: {got} vs {w}");
+                assert!(
+                    (got - w).abs() <= tol,
+                    "{m:?}, {label}, t = {t}: {got} vs {w}"
+                );
             }
         }
         // Outside [0, d) there is no collision density.
@@ -546,7 +571,10 @@ fn fluo_aware_hero_weight_is_exactly_n() {
                 continue; // T and p both underflow; such t is never sampled
             }
             let w = tr * ss / pdf_collision(Tracking::FluoAware, vt, vs, d, t).x;
-            assert!((w / n - 1.0).abs() < 1e-5, "{label}, t = {t}: {w} vs N = {n}");
+            assert!(
+                (w / n - 1.0).abs() < 1e-5,
+                "{label}, t = {t}: {w} vs N = {n}"
+            );
             checked += 1;
         }
         // Sampled collisions too.
@@ -554,8 +582,12 @@ fn fluo_aware_hero_weight_is_exactly_n() {
             if let DistanceSample::Collision { t } =
                 sample_distance(Tracking::FluoAware, vt, vs, d, rng.next_f32())
             {
-                let w = transmittance(vt, t).x * ss / pdf_collision(Tracking::FluoAware, vt, vs, d, t).x;
-                assert!((w / n - 1.0).abs() < 1e-5, "{label}, sampled t = {t}: {w} vs {n}");
+                let w = transmittance(vt, t).x * ss
+                    / pdf_collision(Tracking::FluoAware, vt, vs, d, t).x;
+                assert!(
+                    (w / n - 1.0).abs() < 1e-5,
+                    "{label}, sampled t = {t}: {w} vs {n}"
+                );
             }
         }
     }
@@ -568,7 +600,10 @@ fn fluo_aware_hero_weight_is_exactly_n() {
         }
         let n = fluo_aware_norm(st, ss, d);
         let w = tr / prob_surface(Tracking::FluoAware, vt, vs, d).x;
-        assert!((w / n - 1.0).abs() < 1e-5, "{label}: surface weight {w} vs N = {n}");
+        assert!(
+            (w / n - 1.0).abs() < 1e-5,
+            "{label}: surface weight {w} vs N = {n}"
+        );
     }
     // The σ̂_t → 0 limit and its continuity.
     assert_eq!(fluo_aware_norm(0.0, 1.5, 2.0), 4.0);
@@ -601,7 +636,10 @@ fn slab_transmittance_and_classic_pass_rate() {
             .count();
         let p = (-(st as f64) * d as f64).exp();
         let z = (passed as f64 / n as f64 - p) / (p * (1.0 - p) / n as f64).sqrt();
-        assert!(z.abs() < 4.0, "σt = {st}: passed {passed}/{n}, e^(−σt d) = {p}, z = {z}");
+        assert!(
+            z.abs() < 4.0,
+            "σt = {st}: passed {passed}/{n}, e^(−σt d) = {p}, z = {z}"
+        );
         let ps = prob_surface(Tracking::Classic, vt, vs, d).x as f64;
         assert!((ps - p).abs() < 1e-6);
     }
@@ -617,7 +655,11 @@ fn weight_bound(method: Tracking, st: f32, ss: f32, d: f32) -> f64 {
         Tracking::Classic => 1.0,
         Tracking::Max => ((ss - st).max(0.0) * d).exp(),
         Tracking::FluoAware => {
-            let cap = if st > 0.0 { (ss / st).max(1.0) } else { f64::INFINITY };
+            let cap = if st > 0.0 {
+                (ss / st).max(1.0)
+            } else {
+                f64::INFINITY
+            };
             cap.min(1.0 + ss * d)
         }
     }
@@ -632,8 +674,14 @@ fn extreme_media_stay_finite_and_bounded_for_every_lane() {
     // σ̂_t = 0 < σ̂_s, which cannot sample the event (p_k = 0, the documented bias) and are
     // only required to be finite.
     let sets = [
-        (Vec4::new(0.0, 0.5, 100.0, 1e-4), Vec4::new(1.5, 2.0, 30.0, 5e-5)),
-        (Vec4::new(2.0, 0.0, 1e-4, 100.0), Vec4::new(0.0, 0.0, 3.0, 150.0)),
+        (
+            Vec4::new(0.0, 0.5, 100.0, 1e-4),
+            Vec4::new(1.5, 2.0, 30.0, 5e-5),
+        ),
+        (
+            Vec4::new(2.0, 0.0, 1e-4, 100.0),
+            Vec4::new(0.0, 0.0, 3.0, 150.0),
+        ),
     ];
     let d = 1.0f32;
     let rot = |v: Vec4, r: usize| Vec4::from_array(std::array::from_fn(|k| v[(k + r) % 4]));
@@ -648,7 +696,10 @@ fn extreme_media_stay_finite_and_bounded_for_every_lane() {
                     let (value, pdf) = match sample_distance(method, st, ss, d, u) {
                         DistanceSample::Collision { t } => {
                             assert!(t.is_finite() && (0.0..d).contains(&t), "{method:?} t = {t}");
-                            (transmittance(st, t) * ss, pdf_collision(method, st, ss, d, t))
+                            (
+                                transmittance(st, t) * ss,
+                                pdf_collision(method, st, ss, d, t),
+                            )
                         }
                         DistanceSample::Surface => {
                             let p = prob_surface(method, st, ss, d);
@@ -656,9 +707,15 @@ fn extreme_media_stay_finite_and_bounded_for_every_lane() {
                             (transmittance(st, d), p)
                         }
                     };
-                    assert!(value.is_finite() && pdf.is_finite(), "{method:?}: {value} {pdf}");
+                    assert!(
+                        value.is_finite() && pdf.is_finite(),
+                        "{method:?}: {value} {pdf}"
+                    );
                     assert!(value.cmpge(Vec4::ZERO).all() && pdf.cmpge(Vec4::ZERO).all());
-                    assert!(pdf.x > 0.0, "{method:?}: the hero's event has pdf 0 ({st}, {ss}, u = {u})");
+                    assert!(
+                        pdf.x > 0.0,
+                        "{method:?}: the hero's event has pdf 0 ({st}, {ss}, u = {u})"
+                    );
                     let sum = pdf.element_sum() as f64;
                     for k in 0..4 {
                         let w = value[k] as f64 / sum;
@@ -721,7 +778,11 @@ fn medium_coefficients_follow_the_dye_convention() {
     let mut l = LAMBDA_MIN + 5.0;
     while l < LAMBDA_MAX {
         let v = Vec4::splat(l);
-        let dye = if (420.0..=520.0).contains(&l) { 4.0 } else { 0.0 };
+        let dye = if (420.0..=520.0).contains(&l) {
+            4.0
+        } else {
+            0.0
+        };
         // σ̂_t = σ_a + σ_s + σ_dye: all of the dye's absorption is extinction.
         assert!((m.sigma_t_hat(v).x - (0.35 + dye)).abs() < 1e-5, "{l}");
         // σ_sa = Φ σ_dye at the cell centre where emission lies above, else 0.
@@ -740,7 +801,10 @@ fn medium_coefficients_follow_the_dye_convention() {
         l += 0.1;
     }
     assert!((out - 0.7 * 4.0 * 100.0).abs() < 0.5, "∫σ_sa = {out}");
-    assert!((out / into - 1.0).abs() < 1e-3, "∫σ_sa = {out}, ∫σ_se = {into}");
+    assert!(
+        (out / into - 1.0).abs() < 1e-3,
+        "∫σ_sa = {out}, ∫σ_se = {into}"
+    );
     // No dye below 420 nm or in the emission tail: an ordinary medium there.
     let s = m.sample_shift(700.0, 0.99, 0.5).unwrap();
     assert!(s.kept && s.pdf == 1.0 && (s.value - 0.3).abs() < 1e-6);
@@ -786,12 +850,18 @@ fn medium_shift_sampling_chi_square_and_weight() {
                 .sum();
         }
         let total: f64 = expected.iter().sum();
-        assert!((total - 1.0).abs() < 1e-5, "λo {lambda_o}: total mass {total}");
+        assert!(
+            (total - 1.0).abs() < 1e-5,
+            "λo {lambda_o}: total mass {total}"
+        );
         // Kept with probability σ_s/σ̂_s.
         assert!((expected[0] - 0.3 / ss_hat as f64).abs() < 1e-6);
         let expected: Vec<f64> = expected.iter().map(|p| p * n as f64).collect();
         let r = chi2_test(&counts, &expected);
-        println!("shift λo = {lambda_o}: χ² = {:.1}, dof {}, p = {:.3}", r.stat, r.dof, r.p);
+        println!(
+            "shift λo = {lambda_o}: χ² = {:.1}, dof {}, p = {:.3}",
+            r.stat, r.dof, r.p
+        );
         assert!(r.p > ALPHA, "λo {lambda_o} (case {idx}): {r:?}");
     }
 }
@@ -871,7 +941,10 @@ fn single_scattering_in_a_fluorescent_slab_exposes_classic_bias() {
     // Above 540 nm the slab emits but does not absorb: σ̂_t = 0 < σ̂_s.
     let v = Vec4::new(560.0, 600.0, 520.0, 450.0);
     let (st, ss) = (m.sigma_t_hat(v), m.sigma_s_hat(v));
-    assert!(st.x == 0.0 && st.y == 0.0 && ss.x > 0.0 && ss.y > 0.0, "{st} {ss}");
+    assert!(
+        st.x == 0.0 && st.y == 0.0 && ss.x > 0.0 && ss.y > 0.0,
+        "{st} {ss}"
+    );
     let reference = slab_reference(&m);
     assert!(reference > 0.0);
     let n = 400_000;
@@ -896,9 +969,15 @@ fn single_scattering_in_a_fluorescent_slab_exposes_classic_bias() {
         );
     }
     println!("{report}");
-    assert!(z_of[0] < -5.0, "classic tracking should be biased low:\n{report}");
+    assert!(
+        z_of[0] < -5.0,
+        "classic tracking should be biased low:\n{report}"
+    );
     assert!(z_of[1].abs() < 4.0, "max tracking disagrees:\n{report}");
-    assert!(z_of[2].abs() < 4.0, "fluorescence-aware tracking disagrees:\n{report}");
+    assert!(
+        z_of[2].abs() < 4.0,
+        "fluorescence-aware tracking disagrees:\n{report}"
+    );
 }
 
 #[test]

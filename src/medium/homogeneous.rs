@@ -307,7 +307,12 @@ mod tests {
             Spectrum::Constant(0.0),
             HenyeyGreenstein::isotropic(),
         )
-        .with_dye(&band(440.0, 480.0, 25.0), &band(500.0, 600.0, 1.0), 0.5, 10.0)
+        .with_dye(
+            &band(440.0, 480.0, 25.0),
+            &band(500.0, 600.0, 1.0),
+            0.5,
+            10.0,
+        )
         .unwrap();
         assert!(m.is_fluorescent());
         let l = Vec4::new(455.0, 520.0, 700.0, 400.0);

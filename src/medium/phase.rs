@@ -90,11 +90,12 @@ impl HenyeyGreenstein {
         let sum = (wo + wi).length_squared();
         let diff = (wo - wi).length_squared();
         let total = sum + diff;
-        if !(total > 0.0) {
-            return self.eval(-wo.dot(wi));
+        if total > 0.0 {
+            let scale = 2.0 / total;
+            self.density(sum * scale, diff * scale)
+        } else {
+            self.eval(-wo.dot(wi))
         }
-        let scale = 2.0 / total;
-        self.density(sum * scale, diff * scale)
     }
 
     /// The solid-angle density with which [`Self::sample`] returns `wi` given `wo`.

@@ -1,7 +1,7 @@
 //! Distance sampling on a camera-path segment through a homogeneous medium.
 //!
-//! A segment runs from the current vertex to the next surface at distance d (finite,
-//! > 0; d = 0 is allowed and always reaches the surface). A sampler returns either a
+//! A segment runs from the current vertex to the next surface at a finite distance d
+//! (d = 0 is allowed and always reaches the surface). A sampler returns either a
 //! collision at t ∈ [0, d) (a density p(t), per unit length) or "reached the surface"
 //! (a probability P(surface)); the estimator then weighs a collision with
 //! T(t)·σ̂_s / p(t) (the σ̂_s factor enters through the shift sample, whose value over pdf is
@@ -135,11 +135,13 @@ fn sample_fluo_aware(st: f32, ss: f32, d: f32, u: f32) -> DistanceSample {
     }
     let collide = ss * integral_exp(st, d);
     let x = u * ((-st * d).exp() + collide);
-    if !(x < collide) {
+    // Written so that a NaN falls through to the surface.
+    let g = if x < collide {
+        x / ss
+    } else {
         return DistanceSample::Surface;
-    }
+    };
     // g = ∫₀ᵗ e^{−σ̂_t s} ds, y = σ̂_t g = 1 − e^{−σ̂_t t} ∈ [0, 1).
-    let g = x / ss;
     let y = (st * g).min(1.0);
     let t = if y < 1e-5 {
         g * (1.0 + y * (0.5 + y * (1.0 / 3.0)))
@@ -185,7 +187,7 @@ pub fn pdf_collision_lane(method: Tracking, sigma_t: f32, sigma_s: f32, d: f32, 
             mu * (-mu * t).exp()
         }
         Tracking::FluoAware => {
-            if !(ss > 0.0) {
+            if ss <= 0.0 {
                 return 0.0;
             }
             let n = fluo_aware_norm(st, ss, d);
@@ -272,7 +274,10 @@ mod tests {
         let s = Vec4::new(1.0, 0.0, 3.0, 0.5);
         for m in [Tracking::Classic, Tracking::Max, Tracking::FluoAware] {
             assert_eq!(sample_distance(m, s, s, 0.0, 0.0), DistanceSample::Surface);
-            assert_eq!(prob_surface(m, s, Vec4::new(0.0, 1.0, 0.5, 3.0), 0.0), Vec4::ONE);
+            assert_eq!(
+                prob_surface(m, s, Vec4::new(0.0, 1.0, 0.5, 3.0), 0.0),
+                Vec4::ONE
+            );
         }
     }
 }
