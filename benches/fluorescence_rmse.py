@@ -1,18 +1,28 @@
 #!/usr/bin/env python3
-"""RMSE of mono, HWSS-constant and HWSS-independent against a high-spp reference, at 16 spp
-and at equal time, on the fluorescent-surfaces scenes. Prints a Markdown table and writes
-docs/results/<scene>-16spp.png (mono | constant | independent, left to right).
+"""RMSE against a high-spp reference, at 16 spp and at equal time.
+
+--set surfaces (default): mono, HWSS-constant and HWSS-independent on the fluorescent-surfaces
+scenes. The "region" columns are the RMSE over the scene's region of interest (REGIONS:
+the row of fluorescent patches, the dye block, the slab).
+--set tracking: mono (fluo-aware), and HWSS with classic, maximum and fluorescence-aware
+tracking, e.g. on fluorescent-slab and fluorescent-volume-440nm.
+The reference is the last method of the set at --ref-spp. Prints a Markdown table and writes
+docs/results/<scene>-16spp.png (the methods left to right, in the order above).
 
 Run from the repository root after `cargo build --release`:
-    python3 benches/fluorescence_rmse.py [--res 256] [--ref-spp 2048] [--scenes a.toml b.toml]
+    python3 benches/fluorescence_rmse.py [--set surfaces|tracking] [--res 256] [--ref-spp 2048] [--scenes a.toml ...]
 Uses the stokes binary and OpenImageIO's oiiotool.
 """
 import argparse, json, math, os, subprocess, sys, tempfile
 
 STOKES = "target/release/stokes"
-METHODS = [("mono", ["--spectral", "mono"]),
-           ("hwss-constant", ["--spectral", "hwss", "--shifting", "constant"]),
-           ("hwss-independent", ["--spectral", "hwss", "--shifting", "independent"])]
+SURFACE_METHODS = [("mono", ["--spectral", "mono"]),
+                   ("hwss-constant", ["--spectral", "hwss", "--shifting", "constant"]),
+                   ("hwss-independent", ["--spectral", "hwss", "--shifting", "independent"])]
+TRACKING_METHODS = [("mono fluo-aware", ["--spectral", "mono", "--tracking", "fluo-aware"]),
+                    ("hwss classic", ["--spectral", "hwss", "--tracking", "classic"]),
+                    ("hwss max", ["--spectral", "hwss", "--tracking", "max"]),
+                    ("hwss fluo-aware", ["--spectral", "hwss", "--tracking", "fluo-aware"])]
 
 
 def render(scene, out, res, spp, seed, extra):
@@ -23,11 +33,24 @@ def render(scene, out, res, spp, seed, extra):
     return json.load(open(stats))
 
 
-def patch_row(res):
-    """The crop (oiiotool geometry) holding the three fluorescent patches: the patch row
-    x in [98, 458] mm, y in [90, 190] mm on the back wall, seen by the box's camera."""
-    x0, x1 = int(0.3145 * res) + 1, int(0.6855 * res) - 1
-    y0, y1 = int(0.5856 * res) + 1, int(0.6887 * res) - 1
+# Regions of interest, as fractions of the image (x0, x1, y0, y1), projected from the
+# scenes' geometry: the row of fluorescent patches, the inside of the dye block, the slab.
+REGIONS = {
+    "fluorescent-surfaces": (0.3145, 0.6855, 0.5856, 0.6887),
+    "fluorescent-surfaces-440nm": (0.3145, 0.6855, 0.5856, 0.6887),
+    "fluorescent-volume": (0.33, 0.50, 0.45, 0.82),
+    "fluorescent-volume-440nm": (0.33, 0.50, 0.45, 0.82),
+    "fluorescent-slab": (0.15, 0.85, 0.15, 0.85),
+}
+
+
+def region(name, res):
+    """The oiiotool crop geometry of a scene's region of interest, or None."""
+    if name not in REGIONS:
+        return None
+    fx0, fx1, fy0, fy1 = REGIONS[name]
+    x0, x1 = int(fx0 * res) + 1, int(fx1 * res) - 1
+    y0, y1 = int(fy0 * res) + 1, int(fy1 * res) - 1
     return f"{x1 - x0}x{y1 - y0}+{x0}+{y0}"
 
 
@@ -51,34 +74,46 @@ def main():
     ap.add_argument("--scenes", nargs="+",
                     default=["scenes/fluorescent-surfaces.toml", "scenes/fluorescent-surfaces-440nm.toml"])
     ap.add_argument("--png-dir", default="docs/results")
+    ap.add_argument("--set", choices=["surfaces", "tracking"], default="surfaces",
+                    help="surfaces: mono/constant/independent; tracking: classic/max/fluo-aware (+ mono)")
     a = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="stokes-rmse-")
-    print(f"| scene | method | M samples/s | RMSE @ {a.spp} spp: image | patches | spp at equal time | RMSE @ equal time: image | patches |")
+    print(f"| scene | method | M samples/s | RMSE @ {a.spp} spp: image | region | spp at equal time | RMSE @ equal time: image | region |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    crop = patch_row(a.res)
+    methods = SURFACE_METHODS if a.set == "surfaces" else TRACKING_METHODS
+    base = methods[-1][0]
+
     for scene in a.scenes:
         name = os.path.splitext(os.path.basename(scene))[0]
-        ref = os.path.join(tmp, f"{name}-ref.exr")
-        render(scene, ref, a.res, a.ref_spp, 999, ["--spectral", "hwss", "--shifting", "independent"])
+        crop = region(name, a.res)
+        # References are cached between runs (same scene, resolution, spp and set).
+        cache = os.path.join(tempfile.gettempdir(), "stokes-rmse-refs")
+        os.makedirs(cache, exist_ok=True)
+        ref = os.path.join(cache, f"{name}-{a.set}-{a.res}-{a.ref_spp}.exr")
+        if not os.path.exists(ref):
+            render(scene, ref, a.res, a.ref_spp, 999, methods[-1][1])
         rows, pngs, secs = [], [], {}
-        for m, extra in METHODS:
+        for m, extra in methods:
             out = os.path.join(tmp, f"{name}-{m}.exr")
             st = render(scene, out, a.res, a.spp, 1, extra + ["--png"])
             secs[m] = st["seconds"]
-            rows.append((m, rmse(out, ref), rmse(out, ref, crop), st["samples_per_second"]))
+            rows.append((m, rmse(out, ref), rmse(out, ref, crop) if crop else float("nan"),
+                         st["samples_per_second"]))
             pngs.append(out[:-4] + ".png")
-        budget = secs["hwss-independent"]
+        budget = secs[base]
         for m, err, err_p, sps in rows:
-            extra = dict(METHODS)[m]
+            extra = dict(methods)[m]
             spp_eq = max(1, round(a.spp * budget / secs[m]))
             out = os.path.join(tmp, f"{name}-{m}-eq.exr")
             render(scene, out, a.res, spp_eq, 2, extra)
-            print(f"| {name} | {m} | {sps / 1e6:.2f} | {err:.4f} | {err_p:.4f} | {spp_eq} "
-                  f"| {rmse(out, ref):.4f} | {rmse(out, ref, crop):.4f} |")
+            eq_p = f"{rmse(out, ref, crop):.4f}" if crop else "–"
+            err_p = f"{err_p:.4f}" if crop else "–"
+            print(f"| {name} | {m} | {sps / 1e6:.2f} | {err:.4f} | {err_p} | {spp_eq} "
+                  f"| {rmse(out, ref):.4f} | {eq_p} |")
             sys.stdout.flush()
         os.makedirs(a.png_dir, exist_ok=True)
-        subprocess.run(["oiiotool"] + pngs + ["--mosaic", "3x1", "-o",
-                        os.path.join(a.png_dir, f"{name}-{a.spp}spp.png")], check=True)
+        subprocess.run(["oiiotool"] + pngs + ["--mosaic", f"{len(pngs)}x1", "-o",
+                        os.path.join(a.png_dir, f"{name}-{a.set}-{a.spp}spp.png")], check=True)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,7 @@
 //! spectrum (1/scene-unit), an emission shape E and a quantum yield Φ. It re-emits with the
 //! convention of [`Reradiation::from_dye`], taking its "absorbed fraction" A to be σ_dye:
 //!
-//! F(λi, λo) = Φ · σ_dye(λi) · E(λo) · [λo > λi] / ∫_{λ' > λi} E(λ') dλ'
+//! F(λi, λo) = Φ · σ_dye(λi) · E(λo) · 𝟙(λo > λi) / ∫_{λ' > λi} E(λ') dλ'
 //!
 //! on the cells of `cell_nm` nm (σ_dye and E at the cell centres). Hence the out-shifting
 //! coefficient is σ_sa(λ) = Φ·σ_dye(c) where c is the centre of λ's cell and some emission

@@ -14,6 +14,24 @@
 //! Units: every coefficient is in 1/scene-unit (the unit of the scene's coordinates),
 //! wavelengths in nm, the dye's F in 1/(scene-unit·nm).
 //!
+//! # Scene syntax
+//! (parsed in `scene`; a shape's `interior` names the medium inside it)
+//! ```toml
+//! [media.fog]             # σ_a and/or σ_s, or albedo together with sigma_t; g defaults to 0
+//! albedo = 0.8
+//! sigma_t = 2.0
+//! g = 0.3
+//!
+//! [media.dye]             # an exclusively fluorescent medium
+//! sigma_a = 0.0
+//! sigma_s = 0.0
+//! # σ_dye = concentration × absorption (1/scene-unit, may exceed 1); emission is a shape;
+//! # cell_nm is the width of the re-radiation grid's cells (default 2 nm)
+//! dye = { absorption = { wavelengths = [400, 440, 480], values = [0, 1, 0] }, concentration = 4.0, emission = { wavelengths = [490, 525, 600], values = [0, 1, 0] }, quantum_yield = 0.95 }
+//! ```
+//! The tracking method is chosen on the command line, `--tracking classic|max|fluo-aware`
+//! ([`Tracking`]; its `Display` prints those names).
+//!
 //! How the integrator uses them on a segment of length d inside a medium, with lane 0 the
 //! hero: `st = sigma_t_hat(λ)`, `ss = sigma_s_hat(λ)`, then [`tracking::sample_distance`];
 //! on a collision at t, `beta *= transmittance(st, t) / pdf.x` and `ratio *= pdf / pdf.x`
