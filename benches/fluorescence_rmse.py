@@ -41,6 +41,7 @@ REGIONS = {
     "fluorescent-volume": (0.33, 0.50, 0.45, 0.82),
     "fluorescent-volume-440nm": (0.33, 0.50, 0.45, 0.82),
     "fluorescent-slab": (0.15, 0.85, 0.15, 0.85),
+    "fluorescent-slab-backlit": (0.15, 0.85, 0.15, 0.85),
 }
 
 
