@@ -319,6 +319,10 @@ impl Builder<'_> {
                 if s.flip {
                     mesh.flip();
                 }
+                if interior.is_some() {
+                    mesh.check_closed_outward()
+                        .map_err(|e| format!("{key}.interior: {e}"))?;
+                }
                 let (a, b) = mesh.bounds();
                 lo = lo.min(a);
                 hi = hi.max(b);

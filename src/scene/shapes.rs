@@ -31,6 +31,50 @@ impl TriMesh {
         }
     }
 
+    /// Checks that the mesh can bound a medium: closed (after welding equal positions,
+    /// every edge is shared by exactly two triangles) and facing outwards (positive signed
+    /// volume). The error says what is wrong.
+    pub fn check_closed_outward(&self) -> Result<(), String> {
+        use std::collections::HashMap;
+        if self.indices.is_empty() {
+            return Err("the mesh is empty".into());
+        }
+        let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
+        let ids: Vec<u32> = self
+            .positions
+            .iter()
+            .map(|p| {
+                let key = p.map(f32::to_bits);
+                let n = weld.len() as u32;
+                *weld.entry(key).or_insert(n)
+            })
+            .collect();
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in &self.indices {
+            let v = t.map(|i| ids[i as usize]);
+            for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
+                *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        if let Some((_, n)) = edges.iter().find(|(_, &n)| n != 2) {
+            return Err(format!(
+                "the mesh is not closed (an edge is shared by {n} triangle(s) instead of 2), so it cannot hold a medium"
+            ));
+        }
+        let volume: f64 = self
+            .indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| Vec3::from(self.positions[i as usize]).as_dvec3());
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum();
+        if volume <= 0.0 {
+            return Err("the mesh faces inwards (negative volume); a medium boundary must face outwards (try flip = true)".into());
+        }
+        Ok(())
+    }
+
     /// Axis-aligned bounds.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
@@ -140,6 +184,17 @@ mod tests {
         let s = uv_sphere(Vec3::new(1.0, 0.0, 0.0), 2.0, 8, 16);
         assert_eq!(s.indices.len(), 2 * 16 * 7);
         assert!(outward(&s, Vec3::new(1.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn closed_outward_check() {
+        assert!(cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0)).check_closed_outward().is_ok());
+        assert!(uv_sphere(Vec3::ZERO, 1.0, 8, 16).check_closed_outward().is_ok());
+        let open = quad(Vec3::ZERO, Vec3::X, Vec3::Y).check_closed_outward().unwrap_err();
+        assert!(open.contains("not closed"), "{open}");
+        let mut inward = cuboid(Vec3::ZERO, Vec3::ONE);
+        inward.flip();
+        assert!(inward.check_closed_outward().unwrap_err().contains("inwards"));
     }
 
     #[test]
