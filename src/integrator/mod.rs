@@ -215,6 +215,24 @@ struct PrevVertex {
 pub fn radiance(
     scene: &Scene,
     camera_ray: Ray,
+    lambda: Vec4,
+    opts: &PathOptions,
+    rng: &mut Pcg32,
+    shift_rng: &mut LazyStream,
+    stats: &mut PathStats,
+) -> Vec4 {
+    // Scenes without media get a path loop with the medium code compiled out.
+    if scene.has_media() {
+        radiance_impl::<true>(scene, camera_ray, lambda, opts, rng, shift_rng, stats)
+    } else {
+        radiance_impl::<false>(scene, camera_ray, lambda, opts, rng, shift_rng, stats)
+    }
+}
+
+/// [`radiance`] for scenes with (`MEDIA = true`) or without participating media.
+fn radiance_impl<const MEDIA: bool>(
+    scene: &Scene,
+    camera_ray: Ray,
     mut lambda: Vec4,
     opts: &PathOptions,
     rng: &mut Pcg32,
@@ -245,7 +263,7 @@ pub fn radiance(
         let hit = scene.accel.intersect1(&ray);
 
         // Distance sampling in the current medium, hero-driven with per-lane pdfs.
-        if let Some(m) = medium {
+        if let (true, Some(m)) = (MEDIA, medium) {
             let Some(h) = hit else { break }; // left a medium that is not closed
             let med = &scene.media[m as usize];
             let (st, ss) = (med.sigma_t_hat(lambda), med.sigma_s_hat(lambda));
@@ -325,7 +343,7 @@ pub fn radiance(
         let geom = &scene.geometries[hit.geom_id as usize];
 
         // An index-matched medium boundary: cross it without scattering.
-        if geom.is_null_interface() {
+        if MEDIA && geom.is_null_interface() {
             crossings += 1;
             if crossings > 256 {
                 break;
@@ -397,15 +415,19 @@ pub fn radiance(
                         let le = le_cache.get(ls.emitter, lambda, lights);
                         let p_light = ls.pdf_area * d2 / cos_l.abs();
                         let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
-                        // Leaving the surface towards wi: which medium is the shadow ray in?
-                        let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
-                            medium
-                        } else {
-                            medium_after_crossing(scene, hit.geom_id, ng, wi)
-                        };
-                        if let Some((tr, pass)) =
+                        let unoccluded = if MEDIA {
+                            // Leaving the surface towards wi: which medium is the shadow ray in?
+                            let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
+                                medium
+                            } else {
+                                medium_after_crossing(scene, hit.geom_id, ng, wi)
+                            };
                             shadow_transmittance(scene, sray, m_out, lambda, opts.tracking, stats)
-                        {
+                        } else {
+                            stats.rays += 1;
+                            (!scene.accel.occluded1(&sray)).then_some((Vec4::ONE, Vec4::ONE))
+                        };
+                        if let Some((tr, pass)) = unoccluded {
                             let denom = (ratio * (Vec4::splat(p_light) + pdf_bsdf * pass)).element_sum();
                             l += beta * tr * f_cos * le / denom;
                         }
@@ -436,7 +458,7 @@ pub fn radiance(
             break;
         }
         // Crossing the surface (refraction) changes the medium.
-        if ng.dot(bs.wi) * ng.dot(wo) < 0.0 {
+        if MEDIA && ng.dot(bs.wi) * ng.dot(wo) < 0.0 {
             medium = medium_after_crossing(scene, hit.geom_id, ng, bs.wi);
         }
         if !russian_roulette(&mut beta, depth, rng) {
