@@ -7,7 +7,7 @@
 //! | --- | --- | --- |
 //! | `camera`: one ray per pixel centre | `intersect1` | `intersect4` on 2×2 pixel quads, `Coherent` |
 //! | `random`: origins uniform in the scene bounds, uniform directions | `intersect1` | `intersect4` on consecutive rays, `Incoherent` |
-//! | `shadow`: from the camera hits to points on the lights | `occluded1` | `occluded4` on 2×2 pixel quads, `Coherent` |
+//! | `shadow`: from the camera hits to points on the lights (one per 2×2 quad) | `occluded1` | `occluded4` on 2×2 pixel quads, `Coherent` |
 //!
 //! Every ray buffer is generated before the clock starts (the shadow rays from a first,
 //! untimed pass of camera hits), so only the queries — and filling Embree's ray structures
@@ -201,7 +201,8 @@ fn camera_work(input: &RayBenchInput) -> Work {
 }
 
 /// Shadow rays from the camera hits of `camera` (found with `intersect1`, untimed) to points
-/// on the lights, in the same tiles and quads; a lane whose camera ray missed is inactive.
+/// on the lights, one point per 2×2 quad, in the same tiles and quads; a lane whose camera
+/// ray missed is inactive.
 /// The origin is pushed off the surface along the normal (towards the camera side) and the
 /// segment stops short of the light point, both by `1e-4` of the scene's diagonal.
 fn shadow_work(input: &RayBenchInput, camera: &Work) -> Work {
@@ -218,6 +219,9 @@ fn shadow_work(input: &RayBenchInput, camera: &Work) -> Work {
     for &end in &camera.quad_chunk_ends {
         for q in &camera.quads[start..end] {
             let mut quad = *q;
+            // One light point per quad, shared by its four lanes: the coherent case a packet
+            // path tracer produces when a 2×2 pixel quad samples a light together.
+            let target = (input.light_point)([rng.f32(), rng.f32(), rng.f32()]);
             for k in 0..4 {
                 let shadow = if q.active[k] {
                     let r = &q.rays[k];
@@ -228,7 +232,7 @@ fn shadow_work(input: &RayBenchInput, camera: &Work) -> Work {
                             n = -n;
                         }
                         let org = p + eps * n;
-                        let dir = (input.light_point)([rng.f32(), rng.f32(), rng.f32()]) - org;
+                        let dir = target - org;
                         let len = dir.length();
                         Ray {
                             org,
