@@ -4,7 +4,11 @@ use clap::{Args, Parser, Subcommand};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use stokes::integrator::render::{render, RenderOptions};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+use stokes::integrator::render::{
+    render_progressive, PassDone, Progressive, RenderOptions, Stopped,
+};
 use stokes::integrator::{Shifting, Spectral};
 use stokes::medium::tracking::Tracking;
 use stokes::scene::Scene;
@@ -29,6 +33,9 @@ enum Command {
         /// The scene file (TOML).
         scene: PathBuf,
     },
+    /// Merge renders of the same scene with disjoint sample ranges (e.g. the parts of a
+    /// cluster job array): the spp-weighted mean.
+    Merge(MergeArgs),
     /// Benchmarks.
     Bench {
         #[command(subcommand)]
@@ -60,6 +67,19 @@ struct BenchRaysArgs {
     json: bool,
 }
 
+#[derive(Args)]
+struct MergeArgs {
+    /// The renders to merge (EXR files written by `stokes render` or `stokes merge`).
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// The merged EXR.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also merge the parts' <part>.variance.exr into <output>.variance.exr.
+    #[arg(long)]
+    variance: bool,
+}
+
 #[derive(Args, Clone)]
 struct RenderArgs {
     /// The scene file (TOML).
@@ -67,9 +87,17 @@ struct RenderArgs {
     /// Output EXR (default: out/<scene name>.exr).
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Samples per pixel (default: the scene's).
+    /// Samples per pixel (default: the scene's; with --time, a maximum).
     #[arg(long)]
     spp: Option<u32>,
+    /// Render whole 1-spp passes while the next one is expected to end within this many
+    /// seconds (scene loading not counted); --spp, if given, is then a maximum.
+    #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true)]
+    time: Option<f64>,
+    /// Draw sample indices [K, K + spp) instead of [0, spp): parts with disjoint ranges
+    /// are independent and can be merged with `stokes merge`.
+    #[arg(long, default_value_t = 0)]
+    seed_offset: u32,
     /// Resolution WxH (default: the scene's).
     #[arg(long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
@@ -101,7 +129,22 @@ struct RenderArgs {
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     stats_json: Option<PathBuf>,
+    /// Test hook: make every N-th sample NaN (they must be dropped and counted).
+    #[arg(long, hide = true)]
+    inject_nonfinite_every: Option<u64>,
 }
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
+        _ => Err(format!(
+            "expected a positive number of seconds, found {s:?}"
+        )),
+    }
+}
+
+/// The largest image side: 32768² pixels still index with 32 bits.
+const MAX_SIDE: u32 = 32768;
 
 fn parse_res(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
@@ -115,8 +158,8 @@ fn parse_res(s: &str) -> Result<(u32, u32), String> {
         .trim()
         .parse()
         .map_err(|_| format!("expected a height in {s:?}"))?;
-    if w == 0 || h == 0 || w > 32768 || h > 32768 {
-        return Err(format!("expected sizes in 1..=32768, found {s:?}"));
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(format!("expected sizes in 1..={MAX_SIDE}, found {s:?}"));
     }
     Ok((w, h))
 }
@@ -125,18 +168,34 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(a) => cmd_render(&a),
-        Command::Info { scene } => cmd_info(&scene),
+        Command::Info { scene } => cmd_info(&scene).map(|()| ExitCode::SUCCESS),
+        Command::Merge(a) => cmd_merge(&a).map(|()| ExitCode::SUCCESS),
         Command::Bench {
             what: BenchCommand::Rays(a),
-        } => cmd_bench_rays(&a),
+        } => cmd_bench_rays(&a).map(|()| ExitCode::SUCCESS),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The message with control characters escaped, so that an error is always one line
+/// (a file name in a scene may hold a newline escape).
+fn one_line(s: &str) -> String {
+    s.chars()
+        .flat_map(|c| {
+            let esc: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            esc
+        })
+        .collect()
 }
 
 /// `<output>.variance.exr` beside `<output>.exr`.
@@ -149,21 +208,69 @@ fn sibling(path: &Path, suffix: &str) -> PathBuf {
 }
 
 fn load(path: &Path) -> Result<Scene, String> {
-    let scene = Scene::load(path)?;
+    load_with_hash(path).map(|(scene, _)| scene)
+}
+
+/// Loads a scene and fingerprints the scene file's bytes (read once).
+fn load_with_hash(path: &Path) -> Result<(Scene, String), String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
+    let hash = stokes::merge::scene_hash_text(text.as_bytes());
+    let scene = Scene::from_str(&text, path)?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }
-    Ok(scene)
+    Ok((scene, hash))
 }
 
-fn cmd_render(a: &RenderArgs) -> Result<(), String> {
-    let mut scene = load(&a.scene)?;
-    let (width, height) = a.res.unwrap_or((scene.camera.width, scene.camera.height));
+/// Set by the first interrupt: the render stops after the pass in flight.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// On the first Ctrl-C (SIGINT; also SIGTERM and SIGHUP, as a batch scheduler sends at a
+/// time limit), ask the render to stop after the pass in flight; on the second, exit at
+/// once (outputs are written atomically, so no half-written file is left).
+fn install_interrupt_handler(bar: Option<indicatif::ProgressBar>) {
+    let r = ctrlc::set_handler(move || {
+        if STOP.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted again: exiting without writing the image");
+            std::process::exit(130);
+        }
+        let msg = "interrupted: finishing the pass in flight, then writing the image so far (interrupt again to quit at once)";
+        match &bar {
+            Some(b) => b.println(msg),
+            None => eprintln!("{msg}"),
+        }
+    });
+    if let Err(e) = r {
+        eprintln!("warning: cannot catch Ctrl-C ({e}): an interrupted render will be lost");
+    }
+}
+
+fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
+    let (mut scene, scene_hash) = load_with_hash(&a.scene)?;
+    let (width, height) = match a.res {
+        Some(r) => r,
+        None => {
+            let (w, h) = (scene.camera.width, scene.camera.height);
+            if w > MAX_SIDE || h > MAX_SIDE {
+                return Err(format!(
+                    "{}: camera.resolution: expected sizes in 1..={MAX_SIDE}, found [{w}, {h}] (--res overrides it)",
+                    a.scene.display()
+                ));
+            }
+            (w, h)
+        }
+    };
     scene.set_resolution(width, height);
+    // With a time budget, --spp is a maximum and the scene's spp does not apply.
+    let max_spp = match (a.time, a.spp) {
+        (Some(_), spp) => spp,
+        (None, spp) => Some(spp.unwrap_or(scene.render.spp)),
+    };
     let opts = RenderOptions {
         width,
         height,
-        spp: a.spp.unwrap_or(scene.render.spp),
+        spp: max_spp.unwrap_or(0),
         seed: a.seed.unwrap_or(scene.render.seed),
         max_depth: a.max_depth.unwrap_or(scene.render.max_depth),
         spectral: a.spectral,
@@ -171,7 +278,7 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
         tracking: a.tracking,
         threads: a.threads,
     };
-    if opts.spp == 0 {
+    if max_spp == Some(0) {
         return Err("--spp: expected at least 1".into());
     }
     if opts.max_depth == 0 || opts.max_depth < -1 {
@@ -180,55 +287,129 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
             opts.max_depth
         ));
     }
+    if let Some(n) = max_spp {
+        if a.seed_offset.checked_add(n).is_none() {
+            return Err(format!(
+                "--seed-offset: {} + {n} samples exceed the 32-bit sample index",
+                a.seed_offset
+            ));
+        }
+    }
+    if a.inject_nonfinite_every == Some(0) {
+        return Err("--inject-nonfinite-every: expected at least 1".into());
+    }
     let out = a
         .output
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("{}.exr", scene.name())));
 
     let bar = if std::io::stderr().is_terminal() {
-        let b = indicatif::ProgressBar::new(height as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} {elapsed_precise} [{bar:40}] {pos}/{len} rows, eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-        );
+        let b = match max_spp {
+            Some(n) if a.time.is_none() => {
+                let b = indicatif::ProgressBar::new(n as u64 * height as u64);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template(
+                        "{spinner} {elapsed_precise} [{bar:40}] {msg}, eta {eta}",
+                    )
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+                );
+                b
+            }
+            _ => {
+                let b = indicatif::ProgressBar::new_spinner();
+                b.set_style(
+                    indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+                );
+                b.enable_steady_tick(std::time::Duration::from_millis(200));
+                b
+            }
+        };
+        b.set_message("0 spp");
         Some(b)
     } else {
         None
     };
+    install_interrupt_handler(bar.clone());
     let on_row = || {
         if let Some(b) = &bar {
             b.inc(1);
         }
     };
-    let result = render(&scene, &opts, &on_row)?;
+    // Without a terminal (logs, batch jobs): a line after the first pass, then at most
+    // one a minute.
+    let mut last_log = Instant::now();
+    let mut on_pass = |p: PassDone| {
+        if let Some(b) = &bar {
+            b.set_message(format!("{} spp", p.spp));
+        } else if p.passes == 1 || last_log.elapsed().as_secs_f64() >= 60.0 {
+            last_log = Instant::now();
+            let of = match (max_spp, a.time) {
+                (Some(n), None) => format!(
+                    "{} of {n} spp, about {:.0} s to go",
+                    p.spp,
+                    p.seconds / p.spp as f64 * (n - p.spp) as f64
+                ),
+                (_, Some(t)) => format!("{} spp (time budget {t} s)", p.spp),
+                _ => format!("{} spp", p.spp),
+            };
+            eprintln!("pass {} done after {:.2} s: {of}", p.passes, p.seconds);
+        }
+    };
+    let prog = Progressive {
+        first_sample: a.seed_offset,
+        max_spp,
+        time_budget: a.time,
+        batch: 1,
+        stop: Some(&STOP),
+        inject_nonfinite_every: a.inject_nonfinite_every,
+    };
+    let done = render_progressive(&scene, &opts, &prog, &on_row, &mut on_pass)?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let result = &done.render;
+    let film = &result.film;
+    let spp = film.spp;
 
-    let samples = width as f64 * height as f64 * opts.spp as f64;
-    let meta = vec![
+    let tracking = opts.tracking.unwrap_or_else(|| scene.default_tracking().0);
+    let range = stokes::merge::SampleRange {
+        seed: opts.seed,
+        start: a.seed_offset as u64,
+        end: a.seed_offset as u64 + spp as u64,
+    };
+    let mut meta = vec![
         ("scene".to_string(), a.scene.display().to_string()),
-        ("spp".to_string(), opts.spp.to_string()),
+        ("scene_hash".to_string(), scene_hash),
+        ("spp".to_string(), spp.to_string()),
         ("seed".to_string(), opts.seed.to_string()),
+        ("seed_offset".to_string(), a.seed_offset.to_string()),
+        ("sample_ranges".to_string(), range.to_string()),
         ("spectral".to_string(), opts.spectral.name().to_string()),
         ("shifting".to_string(), opts.shifting.name().to_string()),
-        (
-            "tracking".to_string(),
-            format!("{:?}", opts.tracking.unwrap_or_else(|| scene.default_tracking().0)).to_lowercase(),
-        ),
+        ("tracking".to_string(), tracking.name().to_string()),
         ("max_depth".to_string(), opts.max_depth.to_string()),
         (
             "render_seconds".to_string(),
             format!("{:.3}", result.seconds),
         ),
+        ("stopped".to_string(), done.stopped.name().to_string()),
+        ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
     ];
-    let film = &result.film;
-    stokes::output::write_exr(&out, width, height, &film.mean(), &meta)?;
+    if let Some(t) = a.time {
+        meta.push(("time_budget".to_string(), t.to_string()));
+    }
+    if result.stats.nonfinite > 0 {
+        meta.push((
+            "nonfinite_samples".to_string(),
+            result.stats.nonfinite.to_string(),
+        ));
+    }
+    let mean = film.mean();
+    stokes::output::write_exr(&out, width, height, &mean, &meta)?;
     if a.png {
-        stokes::output::write_png(&out.with_extension("png"), width, height, &film.mean())?;
+        stokes::output::write_png(&out.with_extension("png"), width, height, &mean)?;
     }
     if a.variance {
         stokes::output::write_exr(
@@ -245,12 +426,13 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
             result.stats.nonfinite
         );
     }
+    let samples = width as f64 * height as f64 * spp as f64;
     let sps = samples / result.seconds;
     let rps = result.stats.rays as f64 / result.seconds;
     if let Some(p) = &a.stats_json {
         let stats = serde_json::json!({
             "seconds": result.seconds,
-            "spp": opts.spp,
+            "spp": spp,
             "width": width,
             "height": height,
             "samples_per_second": sps,
@@ -258,22 +440,59 @@ fn cmd_render(a: &RenderArgs) -> Result<(), String> {
             "rays_per_second": rps,
             "spectral": opts.spectral.name(),
             "nonfinite_samples": result.stats.nonfinite,
+            "seed": opts.seed,
+            "seed_offset": a.seed_offset,
+            "passes": done.passes,
+            "stopped": done.stopped.name(),
         });
         let text = serde_json::to_string_pretty(&stats).map_err(|e| e.to_string())?;
         stokes::output::write_atomically(p, |tmp| {
             std::fs::write(tmp, text + "\n").map_err(|e| format!("cannot write: {e}"))
         })?;
     }
+    let why = match done.stopped {
+        Stopped::Complete => String::new(),
+        Stopped::TimeBudget => format!(" (time budget {} s)", a.time.unwrap_or(0.0)),
+        Stopped::Interrupted => " (interrupted)".to_string(),
+    };
     eprintln!(
-        "{}: {}x{} {} spp in {:.2} s — {:.2} M samples/s, {:.2} M rays/s → {}",
+        "{}: {}x{} {} spp{why} in {:.2} s — {:.2} M samples/s, {:.2} M rays/s → {}",
         scene.name(),
         width,
         height,
-        opts.spp,
+        spp,
         result.seconds,
         sps / 1e6,
         rps / 1e6,
         out.display()
+    );
+    if done.stopped == Stopped::Interrupted {
+        eprintln!(
+            "error: interrupted after {} passes: {} holds the {} spp rendered so far (samples {}..{}; continue with --seed-offset {})",
+            done.passes,
+            out.display(),
+            spp,
+            range.start,
+            range.end,
+            range.end
+        );
+        return Ok(ExitCode::from(130));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_merge(a: &MergeArgs) -> Result<(), String> {
+    let report = stokes::merge::merge(&a.inputs, &a.output, a.variance)?;
+    eprintln!(
+        "merged {} renders: {} spp (samples {}) → {}{}",
+        a.inputs.len(),
+        report.spp,
+        stokes::merge::format_ranges(&report.ranges),
+        a.output.display(),
+        report
+            .variance
+            .map(|v| format!(", {}", v.display()))
+            .unwrap_or_default()
     );
     Ok(())
 }
@@ -331,7 +550,11 @@ fn cmd_info(path: &Path) -> Result<(), String> {
         println!(
             "media       {} ({}); default tracking {:?}: {why}",
             scene.medium_names.join(", "),
-            if scene.has_fluorescent_media() { "fluorescent" } else { "not fluorescent" },
+            if scene.has_fluorescent_media() {
+                "fluorescent"
+            } else {
+                "not fluorescent"
+            },
             t
         );
     } else {

@@ -54,7 +54,13 @@ pub fn write_exr(
 ) -> Result<(), String> {
     use exr::meta::attribute::{AttributeValue, Text};
     use exr::prelude::*;
-    assert_eq!(rgb.len(), (width * height) as usize);
+    if rgb.len() != width as usize * height as usize {
+        return Err(format!(
+            "{}: {} pixels given for a {width}x{height} image",
+            path.display(),
+            rgb.len()
+        ));
+    }
     let w = width as usize;
     let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
         let c = rgb[p.y() * w + p.x()];

@@ -232,7 +232,15 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
                 tracking: stokes::medium::tracking::Tracking::Classic,
                 max_depth: -1,
             };
-            let l = radiance(&scene, ray, glam::Vec4::splat(lambda_o), &opts, &mut rng, &mut shift, &mut stats);
+            let l = radiance(
+                &scene,
+                ray,
+                glam::Vec4::splat(lambda_o),
+                &opts,
+                &mut rng,
+                &mut shift,
+                &mut stats,
+            );
             let v = l.x as f64;
             sum += v;
             sq += v * v;

@@ -11,7 +11,15 @@ use stokes::medium::Tracking;
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 
-fn render_with(scene: &mut Scene, res: u32, spp: u32, seed: u64, spectral: Spectral, tracking: Tracking, max_depth: i32) -> Film {
+fn render_with(
+    scene: &mut Scene,
+    res: u32,
+    spp: u32,
+    seed: u64,
+    spectral: Spectral,
+    tracking: Tracking,
+    max_depth: i32,
+) -> Film {
     scene.set_resolution(res, res);
     let opts = RenderOptions {
         width: res,
@@ -32,7 +40,10 @@ fn render_with(scene: &mut Scene, res: u32, spp: u32, seed: u64, spectral: Spect
 /// A box of medium `medium` (TOML body of [media.m]) in a grey room under a quad light.
 fn room_with_medium(medium: &str, boundary_material: Option<&str>) -> String {
     let (mat_def, mat_ref) = match boundary_material {
-        Some(m) => (format!("[materials.boundary]\n{m}\n"), "material = \"boundary\"\n".to_string()),
+        Some(m) => (
+            format!("[materials.boundary]\n{m}\n"),
+            "material = \"boundary\"\n".to_string(),
+        ),
         None => (String::new(), String::new()),
     };
     format!(
@@ -81,18 +92,64 @@ fn tracking_methods_and_lane_counts_agree_in_a_non_fluorescent_medium() {
     for boundary in [None, Some("type = \"dielectric\"\nior = 1.33")] {
         let mut scene = scene_from(&room_with_medium(SCATTERING, boundary));
         let runs = [
-            ("classic", render_with(&mut scene, 24, 128, 1, Spectral::Hwss, Tracking::Classic, -1)),
-            ("max", render_with(&mut scene, 24, 128, 2, Spectral::Hwss, Tracking::Max, -1)),
-            ("fluo-aware", render_with(&mut scene, 24, 128, 3, Spectral::Hwss, Tracking::FluoAware, -1)),
-            ("mono classic", render_with(&mut scene, 24, 512, 4, Spectral::Mono, Tracking::Classic, -1)),
+            (
+                "classic",
+                render_with(
+                    &mut scene,
+                    24,
+                    128,
+                    1,
+                    Spectral::Hwss,
+                    Tracking::Classic,
+                    -1,
+                ),
+            ),
+            (
+                "max",
+                render_with(&mut scene, 24, 128, 2, Spectral::Hwss, Tracking::Max, -1),
+            ),
+            (
+                "fluo-aware",
+                render_with(
+                    &mut scene,
+                    24,
+                    128,
+                    3,
+                    Spectral::Hwss,
+                    Tracking::FluoAware,
+                    -1,
+                ),
+            ),
+            (
+                "mono classic",
+                render_with(
+                    &mut scene,
+                    24,
+                    512,
+                    4,
+                    Spectral::Mono,
+                    Tracking::Classic,
+                    -1,
+                ),
+            ),
         ];
         // The medium block's image region and the whole image.
-        let block: Vec<usize> = (0..24 * 24usize).filter(|i| (i % 24).abs_diff(12) < 5 && (i / 24) >= 10 && (i / 24) < 20).collect();
+        let block: Vec<usize> = (0..24 * 24usize)
+            .filter(|i| (i % 24).abs_diff(12) < 5 && (i / 24) >= 10 && (i / 24) < 20)
+            .collect();
         for (name, px) in [("block", block), ("image", all_pixels(&runs[0].1))] {
-            let m: Vec<_> = runs.iter().map(|(n, f)| (*n, region_mean(f, &px))).collect();
+            let m: Vec<_> = runs
+                .iter()
+                .map(|(n, f)| (*n, region_mean(f, &px)))
+                .collect();
             for i in 0..m.len() {
                 for j in i + 1..m.len() {
-                    assert_agree(&format!("{boundary:?} {name}: {} vs {}", m[i].0, m[j].0), m[i].1, m[j].1, 4.0);
+                    assert_agree(
+                        &format!("{boundary:?} {name}: {} vs {}", m[i].0, m[j].0),
+                        m[i].1,
+                        m[j].1,
+                        4.0,
+                    );
                 }
             }
         }
@@ -107,11 +164,26 @@ fn a_dense_medium_darkens_and_the_medium_is_seen() {
     let mut with = scene_from(&room_with_medium(absorbing, None));
     let mut without = scene_from(&room_with_medium("sigma_a = 0.0\nsigma_s = 0.0", None));
     let a = render_with(&mut with, 24, 32, 1, Spectral::Hwss, Tracking::Classic, -1);
-    let b = render_with(&mut without, 24, 32, 1, Spectral::Hwss, Tracking::Classic, -1);
-    let block: Vec<usize> = (0..24 * 24usize).filter(|i| (i % 24).abs_diff(12) < 4 && (i / 24) >= 12 && (i / 24) < 18).collect();
+    let b = render_with(
+        &mut without,
+        24,
+        32,
+        1,
+        Spectral::Hwss,
+        Tracking::Classic,
+        -1,
+    );
+    let block: Vec<usize> = (0..24 * 24usize)
+        .filter(|i| (i % 24).abs_diff(12) < 4 && (i / 24) >= 12 && (i / 24) < 18)
+        .collect();
     let (ma, _) = region_mean(&a, &block);
     let (mb, _) = region_mean(&b, &block);
-    assert!(ma[1] < 0.3 * mb[1], "dense block {} vs empty {}", ma[1], mb[1]);
+    assert!(
+        ma[1] < 0.3 * mb[1],
+        "dense block {} vs empty {}",
+        ma[1],
+        mb[1]
+    );
 }
 
 /// A wide, thin slab of exclusively fluorescent medium (thickness `d`, σ_dye peak
@@ -148,14 +220,20 @@ emission = {{ radiance = {{ narrow_band = 440, fwhm = 16 }}, scale = 50, two_sid
 /// E₂(x) = ∫₀¹ e^{−x/μ} dμ by the midpoint rule.
 fn e2(x: f64) -> f64 {
     let n = 400;
-    (0..n).map(|i| (-(x) / ((i as f64 + 0.5) / n as f64)).exp()).sum::<f64>() / n as f64
+    (0..n)
+        .map(|i| (-(x) / ((i as f64 + 0.5) / n as f64)).exp())
+        .sum::<f64>()
+        / n as f64
 }
 
 /// Single scattering seen through the slab at λo: the background L(λo) plus
 /// ∫₀^d ∫ F(λi, λo) L(λi) ½[E₂(σ(λi) z) + E₂(σ(λi)(d − z))] dλi dz, with σ̂_t(λo) = 0.
 fn quadrature(scene: &Scene, lambda_o: f32, d: f64) -> f64 {
     let med = &scene.media[0];
-    let light = stokes::spectrum::Spectrum::NarrowBand { centre: 440.0, fwhm: 16.0 };
+    let light = stokes::spectrum::Spectrum::NarrowBand {
+        centre: 440.0,
+        fwhm: 16.0,
+    };
     let (nz, h) = (64, 0.25f32);
     let mut total = 0.0;
     let mut li = 400.0 + h / 2.0;
@@ -179,13 +257,27 @@ fn quadrature(scene: &Scene, lambda_o: f32, d: f64) -> f64 {
 
 fn estimate(scene: &Scene, lambda_o: f32, tracking: Tracking, n: u64) -> (f64, f64) {
     let ray = scene.camera.ray(4.0, 4.0);
-    let opts = PathOptions { spectral: Spectral::Mono, shifting: Shifting::Independent, tracking, max_depth: 2 };
+    let opts = PathOptions {
+        spectral: Spectral::Mono,
+        shifting: Shifting::Independent,
+        tracking,
+        max_depth: 2,
+    };
     let (mut s, mut q) = (0.0f64, 0.0f64);
     let mut stats = PathStats::default();
     for i in 0..n {
         let mut rng = Pcg32::for_sample(17, lambda_o as u64, i);
         let mut shift = LazyStream::new(17, lambda_o as u64, i);
-        let v = radiance(scene, ray, Vec4::splat(lambda_o), &opts, &mut rng, &mut shift, &mut stats).x as f64;
+        let v = radiance(
+            scene,
+            ray,
+            Vec4::splat(lambda_o),
+            &opts,
+            &mut rng,
+            &mut shift,
+            &mut stats,
+        )
+        .x as f64;
         assert!(v.is_finite());
         s += v;
         q += v * v;
@@ -204,13 +296,21 @@ fn single_scattering_in_a_thin_fluorescent_slab_matches_quadrature_and_classic_i
         for tracking in [Tracking::Max, Tracking::FluoAware] {
             let (m, se) = estimate(&scene, lambda_o, tracking, 200_000);
             let z = (m - want) / se;
-            eprintln!("λo {lambda_o} {tracking:?}: {m:.5} ± {se:.5} vs quadrature {want:.5}, z = {z:.2}");
-            assert!(z.abs() < 4.0, "{tracking:?} at {lambda_o} nm: {m} vs {want} (z = {z:.2})");
+            eprintln!(
+                "λo {lambda_o} {tracking:?}: {m:.5} ± {se:.5} vs quadrature {want:.5}, z = {z:.2}"
+            );
+            assert!(
+                z.abs() < 4.0,
+                "{tracking:?} at {lambda_o} nm: {m} vs {want} (z = {z:.2})"
+            );
         }
         let (m, se) = estimate(&scene, lambda_o, Tracking::Classic, 200_000);
         let z = (m - want) / se.max(1e-9);
         eprintln!("λo {lambda_o} Classic: {m:.5} ± {se:.5} vs quadrature {want:.5}, z = {z:.2}");
-        assert!(z < -5.0, "classic tracking should miss the re-emission: z = {z:.2}");
+        assert!(
+            z < -5.0,
+            "classic tracking should miss the re-emission: z = {z:.2}"
+        );
     }
 }
 
@@ -222,8 +322,15 @@ fn extreme_media_stay_finite() {
         for tracking in [Tracking::Classic, Tracking::Max, Tracking::FluoAware] {
             for spectral in [Spectral::Hwss, Spectral::Mono] {
                 let f = render_with(&mut scene, 8, 16, 5, spectral, tracking, -1);
-                let worst = f.mean().iter().flat_map(|p| p.iter().copied()).fold(0.0f32, |a, v| a.max(v.abs()));
-                assert!(worst.is_finite() && worst < 1e4, "{d} {sigma} {tracking:?} {spectral:?}: {worst}");
+                let worst = f
+                    .mean()
+                    .iter()
+                    .flat_map(|p| p.iter().copied())
+                    .fold(0.0f32, |a, v| a.max(v.abs()));
+                assert!(
+                    worst.is_finite() && worst < 1e4,
+                    "{d} {sigma} {tracking:?} {spectral:?}: {worst}"
+                );
             }
         }
     }
@@ -269,16 +376,45 @@ emission = { radiance = 1.0 }
     let mut scene = scene_from(text);
     // Classic tracking in a purely absorbing medium is an analogue estimator (a collision
     // ends the path), so the comparison is a Z-test.
-    let film = render_with(&mut scene, 8, 1024, 1, Spectral::Hwss, Tracking::Classic, -1);
-    let centre: Vec<usize> = (0..64usize).filter(|i| (i % 8).abs_diff(4) < 2 && (i / 8).abs_diff(4) < 2).collect();
+    let film = render_with(
+        &mut scene,
+        8,
+        1024,
+        1,
+        Spectral::Hwss,
+        Tracking::Classic,
+        -1,
+    );
+    let centre: Vec<usize> = (0..64usize)
+        .filter(|i| (i % 8).abs_diff(4) < 2 && (i / 8).abs_diff(4) < 2)
+        .collect();
     let got = region_mean(&film, &centre);
-    let white = stokes::color::xyz_to_linear_srgb(stokes::spectrum::spectrum_to_xyz(&stokes::spectrum::Spectrum::Constant(1.0)));
+    let white = stokes::color::xyz_to_linear_srgb(stokes::spectrum::spectrum_to_xyz(
+        &stokes::spectrum::Spectrum::Constant(1.0),
+    ));
     // The central pixels see the quad at distances 3 to 3.0001 (10° field of view).
     let want = white * (-0.4f32 * 3.0).exp();
-    assert_agree("camera in ink", got, (want.to_array().map(|v| v as f64), [0.0; 3]), 4.0);
-    assert!(got.1[1] < 0.03 * want[1] as f64, "too noisy to decide: {:?}", got.1);
+    assert_agree(
+        "camera in ink",
+        got,
+        (want.to_array().map(|v| v as f64), [0.0; 3]),
+        4.0,
+    );
+    assert!(
+        got.1[1] < 0.03 * want[1] as f64,
+        "too noisy to decide: {:?}",
+        got.1
+    );
     // Without the camera's medium the quad is seen unattenuated: the test can fail.
     let mut outside = scene_from(&text.replace("medium = \"ink\"\n", ""));
-    let f2 = render_with(&mut outside, 8, 64, 1, Spectral::Hwss, Tracking::Classic, -1);
+    let f2 = render_with(
+        &mut outside,
+        8,
+        64,
+        1,
+        Spectral::Hwss,
+        Tracking::Classic,
+        -1,
+    );
     assert!(region_mean(&f2, &centre).0[1] > 1.5 * want[1] as f64);
 }

@@ -157,7 +157,11 @@ fn shadow_transmittance(
 ) -> Option<(Vec4, Vec4)> {
     stats.rays += 1;
     if !scene.has_media() {
-        return if scene.accel.occluded1(&ray) { None } else { Some((Vec4::ONE, Vec4::ONE)) };
+        return if scene.accel.occluded1(&ray) {
+            None
+        } else {
+            Some((Vec4::ONE, Vec4::ONE))
+        };
     }
     let mut tr = Vec4::ONE;
     let mut pass = Vec4::ONE;
@@ -171,7 +175,9 @@ fn shadow_transmittance(
             tr *= tracking::transmittance(st, len);
             pass *= tracking::prob_surface(tracking, st, ss, len);
         }
-        let Some(h) = hit else { return Some((tr, pass)) };
+        let Some(h) = hit else {
+            return Some((tr, pass));
+        };
         let g = &scene.geometries[h.geom_id as usize];
         if !g.is_null_interface() {
             return None;
@@ -185,7 +191,12 @@ fn shadow_transmittance(
         if rest <= 0.0 {
             return Some((tr, pass));
         }
-        ray = Ray { org, dir: ray.dir, tnear: 0.0, tfar: rest };
+        ray = Ray {
+            org,
+            dir: ray.dir,
+            tnear: 0.0,
+            tfar: rest,
+        };
         stats.rays += 1;
     }
     None
@@ -284,7 +295,14 @@ fn radiance_impl<const MEDIA: bool>(
                     let wo = -ray.dir.normalize();
                     // The scattering coefficient σ̂_s enters through the shift sample
                     // (its value over its pdf is σ̂_s: elastic or fluorescent).
-                    if !shift_wavelengths(med, lanes, &mut lambda, &mut beta, &mut ratio, shift_rng.get()) {
+                    if !shift_wavelengths(
+                        med,
+                        lanes,
+                        &mut lambda,
+                        &mut beta,
+                        &mut ratio,
+                        shift_rng.get(),
+                    ) {
                         break;
                     }
                     le_cache = EmissionCache::default();
@@ -302,11 +320,17 @@ fn radiance_impl<const MEDIA: bool>(
                             let f = phase.eval_dirs(wo, wi);
                             let pdf_dir = phase.pdf(wo, wi);
                             let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
-                            if let Some((tr, pass)) =
-                                shadow_transmittance(scene, sray, Some(m), lambda, opts.tracking, stats)
-                            {
+                            if let Some((tr, pass)) = shadow_transmittance(
+                                scene,
+                                sray,
+                                Some(m),
+                                lambda,
+                                opts.tracking,
+                                stats,
+                            ) {
                                 let p_light = ls.pdf_area * d2 / cos_l.abs();
-                                let denom = (ratio * (Vec4::splat(p_light) + pass * pdf_dir)).element_sum();
+                                let denom =
+                                    (ratio * (Vec4::splat(p_light) + pass * pdf_dir)).element_sum();
                                 l += beta * tr * le * (f / denom);
                             }
                         }
@@ -316,7 +340,12 @@ fn radiance_impl<const MEDIA: bool>(
                         break;
                     }
                     // Phase sampling is exact (f = pdf) and the same for every lane.
-                    prev = Some(PrevVertex { pdf_dir: Vec4::splat(pdf_dir), ratio, p, pass: Vec4::ONE });
+                    prev = Some(PrevVertex {
+                        pdf_dir: Vec4::splat(pdf_dir),
+                        ratio,
+                        p,
+                        pass: Vec4::ONE,
+                    });
                     if !russian_roulette(&mut beta, depth, rng) {
                         break;
                     }
@@ -368,7 +397,8 @@ fn radiance_impl<const MEDIA: bool>(
                     Some(pv) => {
                         let d2 = (p - pv.p).length_squared();
                         let cos_l = ng.dot(wo).abs();
-                        let p_light = lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
+                        let p_light =
+                            lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
                         let p_dir = pv.pdf_dir * pv.pass;
                         let denom = (pv.ratio * (p_dir + Vec4::splat(p_light))).element_sum();
                         // beta already holds f/p_dir,0 (and the passes' T/P_0): put the
@@ -428,7 +458,8 @@ fn radiance_impl<const MEDIA: bool>(
                             (!scene.accel.occluded1(&sray)).then_some((Vec4::ONE, Vec4::ONE))
                         };
                         if let Some((tr, pass)) = unoccluded {
-                            let denom = (ratio * (Vec4::splat(p_light) + pdf_bsdf * pass)).element_sum();
+                            let denom =
+                                (ratio * (Vec4::splat(p_light) + pdf_bsdf * pass)).element_sum();
                             l += beta * tr * f_cos * le / denom;
                         }
                     }
@@ -452,7 +483,12 @@ fn radiance_impl<const MEDIA: bool>(
         prev = if bs.specular {
             None
         } else {
-            Some(PrevVertex { pdf_dir: bs.pdf, ratio: ratio_prev, p, pass: Vec4::ONE })
+            Some(PrevVertex {
+                pdf_dir: bs.pdf,
+                ratio: ratio_prev,
+                p,
+                pass: Vec4::ONE,
+            })
         };
         if beta == Vec4::ZERO {
             break;
@@ -488,7 +524,12 @@ fn russian_roulette(beta: &mut Vec4, depth: i32, rng: &mut Pcg32) -> bool {
 /// reflectance) or scattering in a medium (D = σ_s, F from its dye).
 pub trait ShiftModel {
     /// Samples an input wavelength for output `lambda_o`.
-    fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<crate::fluoro::ShiftSample>;
+    fn sample_input(
+        &self,
+        lambda_o: f32,
+        u_choice: f32,
+        u_lambda: f32,
+    ) -> Option<crate::fluoro::ShiftSample>;
     /// The pdf [`ShiftModel::sample_input`] gives that event.
     fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32;
     /// The value of that event.
@@ -497,7 +538,12 @@ pub trait ShiftModel {
 
 impl ShiftModel for Reradiation {
     #[inline]
-    fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<crate::fluoro::ShiftSample> {
+    fn sample_input(
+        &self,
+        lambda_o: f32,
+        u_choice: f32,
+        u_lambda: f32,
+    ) -> Option<crate::fluoro::ShiftSample> {
         Reradiation::sample_input(self, lambda_o, u_choice, u_lambda)
     }
     #[inline]
@@ -512,7 +558,12 @@ impl ShiftModel for Reradiation {
 
 impl ShiftModel for Homogeneous {
     #[inline]
-    fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<crate::fluoro::ShiftSample> {
+    fn sample_input(
+        &self,
+        lambda_o: f32,
+        u_choice: f32,
+        u_lambda: f32,
+    ) -> Option<crate::fluoro::ShiftSample> {
         self.sample_shift(lambda_o, u_choice, u_lambda)
     }
     #[inline]

@@ -5,13 +5,14 @@
 //! whatever the number of threads.
 
 use super::{radiance, PathOptions, PathStats, Shifting, Spectral};
-use crate::medium::tracking::Tracking;
 use crate::color;
+use crate::medium::tracking::Tracking;
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::spectrum::{self, SampledWavelengths};
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// What to render and how.
@@ -54,7 +55,7 @@ pub struct Film {
 impl Film {
     /// An empty film.
     pub fn new(width: u32, height: u32) -> Film {
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         Film {
             width,
             height,
@@ -62,6 +63,32 @@ impl Film {
             sum: vec![[0.0; 3]; n],
             sum_sq: vec![[0.0; 3]; n],
         }
+    }
+
+    /// An empty film, or an error naming the size if its memory cannot be had.
+    pub fn try_new(width: u32, height: u32) -> Result<Film, String> {
+        let n = width as usize * height as usize;
+        let alloc = || -> Option<Vec<[f64; 3]>> {
+            let mut v = Vec::new();
+            v.try_reserve_exact(n).ok()?;
+            v.resize(n, [0.0; 3]);
+            Some(v)
+        };
+        let fail = || {
+            format!(
+                "cannot allocate a film of {width}x{height} pixels ({:.1} GB)",
+                n as f64 * 48.0 / 1e9
+            )
+        };
+        let sum = alloc().ok_or_else(fail)?;
+        let sum_sq = alloc().ok_or_else(fail)?;
+        Ok(Film {
+            width,
+            height,
+            spp: 0,
+            sum,
+            sum_sq,
+        })
     }
 
     /// The pixel means (box filter: each sample counts for the pixel it fell in).
@@ -110,6 +137,21 @@ pub fn pixel_sample(
     sample: u32,
     stats: &mut PathStats,
 ) -> Option<Vec3> {
+    pixel_sample_checked(scene, opts, x, y, sample, false, stats)
+}
+
+/// [`pixel_sample`], with `poison` replacing the estimate by NaN before the finiteness
+/// check (the test hook [`Progressive::inject_nonfinite_every`]).
+#[inline]
+fn pixel_sample_checked(
+    scene: &Scene,
+    opts: &RenderOptions,
+    x: u32,
+    y: u32,
+    sample: u32,
+    poison: bool,
+    stats: &mut PathStats,
+) -> Option<Vec3> {
     let cam = &scene.camera;
     let pixel = (y as u64) * opts.width as u64 + x as u64;
     let mut rng = Pcg32::for_sample(opts.seed, pixel, sample as u64);
@@ -128,14 +170,42 @@ pub fn pixel_sample(
         tracking: opts.tracking.unwrap_or_else(|| scene.default_tracking().0),
         max_depth: opts.max_depth,
     };
-    let l = radiance(scene, ray, wl.lambda, &path, &mut rng, &mut shift_rng, stats);
+    let l = radiance(
+        scene,
+        ray,
+        wl.lambda,
+        &path,
+        &mut rng,
+        &mut shift_rng,
+        stats,
+    );
     let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(wl.lambda, l));
+    let rgb = if poison { Vec3::NAN } else { rgb };
     if rgb.is_finite() {
         Some(rgb)
     } else {
         stats.nonfinite += 1;
         None
     }
+}
+
+/// Whether the test hook poisons sample `sample` of pixel `pixel`: the samples are numbered
+/// pass-major (`sample · width · height + pixel`) and every `every`-th one, counting from 1,
+/// is made NaN.
+#[inline]
+fn poisoned(every: Option<u64>, pixels: u64, pixel: u64, sample: u32) -> bool {
+    match every {
+        None => false,
+        Some(n) => (sample as u64 * pixels + pixel + 1).is_multiple_of(n.max(1)),
+    }
+}
+
+/// How many samples [`poisoned`] hits among samples `[first, first + count)` of every
+/// pixel of a `pixels`-pixel image.
+pub fn poisoned_count(every: u64, pixels: u64, first: u32, count: u32) -> u64 {
+    let n = every.max(1);
+    let end = (first as u64 + count as u64) * pixels;
+    end / n - (first as u64 * pixels) / n
 }
 
 /// Adds samples `[first, first + count)` of every pixel to `film`. A non-finite sample
@@ -150,7 +220,21 @@ pub fn render_pass(
     count: u32,
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
+    render_pass_with(scene, opts, film, first, count, None, on_row)
+}
+
+/// [`render_pass`] with the non-finite test hook (see [`Progressive`]).
+fn render_pass_with(
+    scene: &Scene,
+    opts: &RenderOptions,
+    film: &mut Film,
+    first: u32,
+    count: u32,
+    inject_nonfinite_every: Option<u64>,
+    on_row: &(dyn Fn() + Sync),
+) -> PathStats {
     let w = opts.width as usize;
+    let pixels = opts.width as u64 * opts.height as u64;
     let stats: PathStats = film
         .sum
         .par_chunks_mut(w)
@@ -159,8 +243,12 @@ pub fn render_pass(
         .map(|(y, (sum, sq))| {
             let mut st = PathStats::default();
             for x in 0..w {
+                let pixel = (y * w + x) as u64;
                 for s in first..first + count {
-                    if let Some(c) = pixel_sample(scene, opts, x as u32, y as u32, s, &mut st) {
+                    let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
+                    if let Some(c) =
+                        pixel_sample_checked(scene, opts, x as u32, y as u32, s, poison, &mut st)
+                    {
                         let c = [c.x as f64, c.y as f64, c.z as f64];
                         for k in 0..3 {
                             sum[x][k] += c[k];
@@ -202,5 +290,159 @@ pub fn render(
         film,
         stats,
         seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// How a progressive render proceeds: passes of `batch` samples per pixel, from sample
+/// `first_sample` on, until `max_spp` samples, the time budget or a stop request.
+#[derive(Debug, Clone, Default)]
+pub struct Progressive<'a> {
+    /// The first sample index drawn (the seed offset): a render of n samples per pixel
+    /// draws samples `[first_sample, first_sample + n)` of every pixel's streams.
+    pub first_sample: u32,
+    /// At most this many samples per pixel (`None`: until the budget or a stop).
+    pub max_spp: Option<u32>,
+    /// Wall-clock seconds: a pass starts only if, at the mean pass time so far, it ends
+    /// within the budget. The first pass always runs.
+    pub time_budget: Option<f64>,
+    /// Samples per pixel per pass (at least 1).
+    pub batch: u32,
+    /// Checked between passes: when set, the render stops after the pass in flight.
+    pub stop: Option<&'a AtomicBool>,
+    /// Test hook: every n-th sample (numbered pass-major, see [`poisoned_count`]) is made
+    /// NaN inside the pixel sample, before the finiteness check.
+    #[doc(hidden)]
+    pub inject_nonfinite_every: Option<u64>,
+}
+
+/// Why a progressive render ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stopped {
+    /// All `max_spp` samples were rendered.
+    Complete,
+    /// The time budget was spent.
+    TimeBudget,
+    /// A stop was requested (Ctrl-C).
+    Interrupted,
+}
+
+impl Stopped {
+    /// A short name for headers and statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stopped::Complete => "complete",
+            Stopped::TimeBudget => "time budget",
+            Stopped::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// One finished pass, as reported to the caller.
+#[derive(Debug, Clone, Copy)]
+pub struct PassDone {
+    /// Passes finished so far (1 for the first).
+    pub passes: u32,
+    /// Samples per pixel accumulated so far.
+    pub spp: u32,
+    /// Seconds since the render started.
+    pub seconds: f64,
+}
+
+/// A finished progressive render.
+pub struct ProgressiveResult {
+    /// The film, statistics and seconds.
+    pub render: RenderResult,
+    /// Passes run.
+    pub passes: u32,
+    /// Why it ended.
+    pub stopped: Stopped,
+}
+
+/// Renders passes of `prog.batch` samples per pixel (samples `first_sample`, … in order,
+/// so the film equals that of one [`render_pass`] over the same range) until
+/// `prog.max_spp`, the time budget or `prog.stop`. `opts.spp` is not used. `on_pass` is
+/// called after every pass.
+pub fn render_progressive(
+    scene: &Scene,
+    opts: &RenderOptions,
+    prog: &Progressive,
+    on_row: &(dyn Fn() + Sync),
+    on_pass: &mut dyn FnMut(PassDone),
+) -> Result<ProgressiveResult, String> {
+    if (scene.camera.width, scene.camera.height) != (opts.width, opts.height) {
+        return Err(format!(
+            "render options ask for {}x{} but the camera is {}x{}",
+            opts.width, opts.height, scene.camera.width, scene.camera.height
+        ));
+    }
+    if prog.max_spp.is_none() && prog.time_budget.is_none() {
+        return Err("a progressive render needs a sample count or a time budget".into());
+    }
+    if let Some(t) = prog.time_budget {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(format!("expected a positive time budget, found {t}"));
+        }
+    }
+    // The last sample index must fit the u32 sample counter.
+    let room = u32::MAX - prog.first_sample;
+    let max_spp = prog.max_spp.unwrap_or(room);
+    if max_spp == 0 || max_spp > room {
+        return Err(format!(
+            "samples [{}, {} + {max_spp}) do not fit the 32-bit sample index",
+            prog.first_sample, prog.first_sample
+        ));
+    }
+    let batch = prog.batch.max(1);
+    let pool = crate::accel::thread_pool(opts.threads)
+        .map_err(|e| format!("cannot start threads: {e}"))?;
+    let mut film = Film::try_new(opts.width, opts.height)?;
+    let mut stats = PathStats::default();
+    let mut passes = 0u32;
+    let start = Instant::now();
+    let stopped = loop {
+        if film.spp >= max_spp {
+            break Stopped::Complete;
+        }
+        if passes > 0 {
+            if prog.stop.is_some_and(|s| s.load(Ordering::SeqCst)) {
+                break Stopped::Interrupted;
+            }
+            if let Some(budget) = prog.time_budget {
+                let elapsed = start.elapsed().as_secs_f64();
+                if elapsed + elapsed / passes as f64 > budget {
+                    break Stopped::TimeBudget;
+                }
+            }
+        }
+        let count = batch.min(max_spp - film.spp);
+        let first = prog.first_sample + film.spp;
+        let st = pool.install(|| {
+            render_pass_with(
+                scene,
+                opts,
+                &mut film,
+                first,
+                count,
+                prog.inject_nonfinite_every,
+                on_row,
+            )
+        });
+        stats.rays += st.rays;
+        stats.nonfinite += st.nonfinite;
+        passes += 1;
+        on_pass(PassDone {
+            passes,
+            spp: film.spp,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    };
+    Ok(ProgressiveResult {
+        render: RenderResult {
+            film,
+            stats,
+            seconds: start.elapsed().as_secs_f64(),
+        },
+        passes,
+        stopped,
     })
 }

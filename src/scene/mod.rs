@@ -12,9 +12,9 @@ use crate::accel;
 use crate::bsdf::{Ior, Material};
 use crate::camera::Camera;
 use crate::fluoro::Reradiation;
+use crate::light::{Emitter, Lights};
 use crate::medium::tracking::Tracking;
 use crate::medium::{HenyeyGreenstein, Homogeneous};
-use crate::light::{Emitter, Lights};
 use crate::spectrum::{self, Spectrum, Tabulated};
 use desc::{IorDesc, SceneDesc, SpectrumDesc};
 use glam::Vec3;
@@ -112,7 +112,7 @@ impl Scene {
             warnings: Vec::new(),
         }
         .build()
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|e| one_line(&format!("{}: {e}", path.display())))
     }
 
     /// Renders at another resolution (same vertical field of view).
@@ -152,7 +152,10 @@ impl Scene {
                 "a medium fluoresces: classic tracking would miss re-emission where σ̂_t is small",
             )
         } else {
-            (Tracking::Classic, "no medium fluoresces: classic tracking is unbiased and cheapest")
+            (
+                Tracking::Classic,
+                "no medium fluoresces: classic tracking is unbiased and cheapest",
+            )
         }
     }
 
@@ -239,7 +242,10 @@ impl Builder<'_> {
             match name {
                 None => Ok(None),
                 Some(n) => medium_index.get(n).copied().map(Some).ok_or_else(|| {
-                    format!("{key}: no medium named {n:?} (defined: {})", list(medium_index.keys()))
+                    format!(
+                        "{key}: no medium named {n:?} (defined: {})",
+                        list(medium_index.keys())
+                    )
                 }),
             }
         };
@@ -272,12 +278,16 @@ impl Builder<'_> {
                         list(material_index.keys())
                     )
                 })?),
-                None if s.emission.is_some() || s.interior.is_some() || s.exterior.is_some() => None,
+                None if s.emission.is_some() || s.interior.is_some() || s.exterior.is_some() => {
+                    None
+                }
                 None => return Err(format!("{key}: missing key `material`")),
             };
             let interior = lookup_medium(&format!("{key}.interior"), &s.interior)?;
             let exterior = lookup_medium(&format!("{key}.exterior"), &s.exterior)?;
-            let null_interface = material.is_none() && s.emission.is_none() && (interior.is_some() || exterior.is_some());
+            let null_interface = material.is_none()
+                && s.emission.is_none()
+                && (interior.is_some() || exterior.is_some());
             if let Some(m) = material {
                 if (interior.is_some() || exterior.is_some())
                     && !matches!(materials[m as usize], Material::Dielectric { .. })
@@ -369,11 +379,19 @@ impl Builder<'_> {
     }
 
     fn medium(&self, key: &str, m: &desc::MediumDesc) -> Result<Homogeneous, String> {
-        let coef = |k: &str, s: &SpectrumDesc| self.spectrum(&format!("{key}.{k}"), s, Some(Range::NonNegative));
+        let coef = |k: &str, s: &SpectrumDesc| {
+            self.spectrum(&format!("{key}.{k}"), s, Some(Range::NonNegative))
+        };
         let (sigma_a, sigma_s) = match (&m.sigma_a, &m.sigma_s, &m.albedo, &m.sigma_t) {
             (a, s, None, None) => (
-                a.as_ref().map(|a| coef("sigma_a", a)).transpose()?.unwrap_or(Spectrum::Constant(0.0)),
-                s.as_ref().map(|s| coef("sigma_s", s)).transpose()?.unwrap_or(Spectrum::Constant(0.0)),
+                a.as_ref()
+                    .map(|a| coef("sigma_a", a))
+                    .transpose()?
+                    .unwrap_or(Spectrum::Constant(0.0)),
+                s.as_ref()
+                    .map(|s| coef("sigma_s", s))
+                    .transpose()?
+                    .unwrap_or(Spectrum::Constant(0.0)),
             ),
             (None, None, Some(al), Some(t)) => {
                 let albedo = self.spectrum(&format!("{key}.albedo"), al, Some(Range::Unit))?;
@@ -382,11 +400,9 @@ impl Builder<'_> {
                 let ss = combine(&albedo, &sigma_t, |al, st| al * st)?;
                 (sa, ss)
             }
-            _ => {
-                return Err(format!(
-                    "{key}: expected `sigma_a` and/or `sigma_s`, or `albedo` together with `sigma_t`"
-                ))
-            }
+            _ => return Err(format!(
+                "{key}: expected `sigma_a` and/or `sigma_s`, or `albedo` together with `sigma_t`"
+            )),
         };
         let g = m.g.unwrap_or(0.0);
         if !(g.is_finite() && g > -1.0 && g < 1.0) {
@@ -396,10 +412,16 @@ impl Builder<'_> {
             None => None,
             Some(d) => {
                 let a = coef("dye.absorption", &d.absorption)?;
-                let e = self.spectrum(&format!("{key}.dye.emission"), &d.emission, Some(Range::NonNegative))?;
+                let e = self.spectrum(
+                    &format!("{key}.dye.emission"),
+                    &d.emission,
+                    Some(Range::NonNegative),
+                )?;
                 let c = d.concentration.unwrap_or(1.0);
                 if !(c.is_finite() && c >= 0.0) {
-                    return Err(format!("{key}.dye.concentration: expected a non-negative number, found {c}"));
+                    return Err(format!(
+                        "{key}.dye.concentration: expected a non-negative number, found {c}"
+                    ));
                 }
                 if !(0.0..=1.0).contains(&d.quantum_yield) {
                     return Err(format!(
@@ -409,16 +431,24 @@ impl Builder<'_> {
                 }
                 let cell = d.cell_nm.unwrap_or(2.0);
                 if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
-                    return Err(format!("{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"));
+                    return Err(format!(
+                        "{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"
+                    ));
                 }
-                let absorption = if c == 1.0 { a } else { Spectrum::Scaled(Box::new(a), c) };
+                let absorption = if c == 1.0 {
+                    a
+                } else {
+                    Spectrum::Scaled(Box::new(a), c)
+                };
                 Some((absorption, e, d.quantum_yield, cell))
             }
         };
         let medium = Homogeneous::new(sigma_a, sigma_s, HenyeyGreenstein::new(g));
         match dye {
             None => Ok(medium),
-            Some((a, e, qy, cell)) => medium.with_dye(&a, &e, qy, cell).map_err(|e| format!("{key}.dye: {e}")),
+            Some((a, e, qy, cell)) => medium
+                .with_dye(&a, &e, qy, cell)
+                .map_err(|e| format!("{key}.dye: {e}")),
         }
     }
 
@@ -792,7 +822,13 @@ fn check_range(key: &str, spec: &Spectrum, range: Option<Range>) -> Result<(), S
     if lo < 0.0 {
         let what = match range {
             Range::Unit => "a reflectance in [0, 1]",
-            Range::NonNegative => "a non-negative radiance",
+            Range::NonNegative => {
+                if key.contains("emission.radiance") {
+                    "a non-negative radiance"
+                } else {
+                    "non-negative values"
+                }
+            }
         };
         return Err(format!("{key}: expected {what}, found {lo} at {} nm", at.0));
     }
@@ -827,6 +863,19 @@ fn ior_from(key: &str, d: &IorDesc) -> Result<Ior, String> {
         }
     }
     Ok(ior)
+}
+
+/// A message on one line: control characters (say, a newline in a file name) escaped.
+fn one_line(msg: &str) -> String {
+    msg.chars()
+        .flat_map(|c| {
+            if c.is_control() {
+                c.escape_default().collect::<Vec<_>>()
+            } else {
+                vec![c]
+            }
+        })
+        .collect()
 }
 
 /// `f(a, b)` as a spectrum: exact for two constants, otherwise tabulated every nanometre

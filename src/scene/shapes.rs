@@ -70,7 +70,7 @@ impl TriMesh {
             })
             .sum();
         if volume <= 0.0 {
-            return Err("the mesh faces inwards (negative volume); a medium boundary must face outwards (try flip = true)".into());
+            return Err("the mesh faces inwards (negative volume); a medium boundary must face outwards (toggle `flip`)".into());
         }
         Ok(())
     }
@@ -188,13 +188,22 @@ mod tests {
 
     #[test]
     fn closed_outward_check() {
-        assert!(cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0)).check_closed_outward().is_ok());
-        assert!(uv_sphere(Vec3::ZERO, 1.0, 8, 16).check_closed_outward().is_ok());
-        let open = quad(Vec3::ZERO, Vec3::X, Vec3::Y).check_closed_outward().unwrap_err();
+        assert!(cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0))
+            .check_closed_outward()
+            .is_ok());
+        assert!(uv_sphere(Vec3::ZERO, 1.0, 8, 16)
+            .check_closed_outward()
+            .is_ok());
+        let open = quad(Vec3::ZERO, Vec3::X, Vec3::Y)
+            .check_closed_outward()
+            .unwrap_err();
         assert!(open.contains("not closed"), "{open}");
         let mut inward = cuboid(Vec3::ZERO, Vec3::ONE);
         inward.flip();
-        assert!(inward.check_closed_outward().unwrap_err().contains("inwards"));
+        assert!(inward
+            .check_closed_outward()
+            .unwrap_err()
+            .contains("inwards"));
     }
 
     #[test]
