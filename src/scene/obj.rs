@@ -22,9 +22,12 @@ pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>, String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("{}: cannot read OBJ file: {e}", path.display()))?;
     validate(path, &text)?;
+    // Positions only: with `single_index: false` tobj keeps the position indices as they
+    // are (no re-indexing map, no vertices duplicated where normals or texture
+    // coordinates differ).
     let opts = tobj::LoadOptions {
         triangulate: true,
-        single_index: true,
+        single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
@@ -33,6 +36,8 @@ pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>, String> {
     let (models, _) =
         tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
             .map_err(|e| format!("{}: malformed OBJ file: {e}", path.display()))?;
+    drop(reader);
+    drop(text); // the models own their data: free the file's text before converting
     let mut out = Vec::with_capacity(models.len());
     for m in models {
         let mesh = m.mesh;
