@@ -6,6 +6,8 @@
 //! p-value from the regularised incomplete gamma function) or at |z| ≥ 4 (Z-test); the
 //! negative controls check that the same machinery rejects a wrong sampler.
 
+mod common;
+use common::stats::{chi2_p_value, gamma_q};
 use glam::{Vec3, Vec4};
 use stokes::medium::tracking::{
     self, fluo_aware_norm, pdf_collision, pdf_collision_lane, prob_surface, prob_surface_lane,
@@ -21,76 +23,6 @@ const METHODS: [Tracking; 3] = [Tracking::Classic, Tracking::Max, Tracking::Fluo
 // ---------------------------------------------------------------------------------------
 // Chi-square machinery
 // ---------------------------------------------------------------------------------------
-
-/// ln Γ(a) for a positive multiple of ½ (the only arguments a chi-square p-value needs):
-/// Γ(1) = 1, Γ(½) = √π and Γ(a + 1) = a Γ(a).
-fn ln_gamma_half_integer(a: f64) -> f64 {
-    let twice = (2.0 * a).round() as i64;
-    assert!(twice >= 1 && (2.0 * a - twice as f64).abs() < 1e-9, "{a}");
-    let (mut x, mut acc) = if twice % 2 == 0 {
-        (1.0, 0.0)
-    } else {
-        (0.5, 0.5 * std::f64::consts::PI.ln())
-    };
-    while x < a - 0.25 {
-        acc += x.ln();
-        x += 1.0;
-    }
-    acc
-}
-
-/// The regularised upper incomplete gamma function Q(a, x) = Γ(a, x)/Γ(a): the power
-/// series of P = 1 − Q below x = a + 1, a continued fraction (modified Lentz) above.
-fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let front = (-x + a * x.ln() - ln_gamma_half_integer(a)).exp();
-    if x < a + 1.0 {
-        // P(a, x) = e^{−x} x^a / Γ(a) · Σ_n x^n / (a (a+1) ⋯ (a+n)).
-        let (mut term, mut sum, mut ap) = (1.0 / a, 1.0 / a, a);
-        for _ in 0..10_000 {
-            ap += 1.0;
-            term *= x / ap;
-            sum += term;
-            if term.abs() < sum.abs() * 1e-16 {
-                break;
-            }
-        }
-        (1.0 - front * sum).max(0.0)
-    } else {
-        // Q(a, x) = e^{−x} x^a / Γ(a) · 1/(x + 1 − a − 1·(1−a)/(x + 3 − a − ⋯)).
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..10_000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let delta = d * c;
-            h *= delta;
-            if (delta - 1.0).abs() < 1e-16 {
-                break;
-            }
-        }
-        front * h
-    }
-}
-
-/// P(χ²_dof ≥ x).
-fn chi2_p_value(x: f64, dof: usize) -> f64 {
-    gamma_q(dof as f64 / 2.0, x / 2.0)
-}
 
 #[test]
 fn chi2_p_value_matches_known_quantiles() {

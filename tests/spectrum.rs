@@ -5,6 +5,8 @@
 //! Statistical tests use fixed seeds and a stated significance, so a run is reproducible
 //! and a failure means something.
 
+mod common;
+use common::stats::chi2_p_value;
 use std::path::PathBuf;
 
 use glam::{Vec3, Vec4};
@@ -38,70 +40,6 @@ impl Rng {
     fn next_f32(&mut self) -> f32 {
         (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
     }
-}
-
-/// ln Γ(z) for z > 0: shift to z ≥ 10, then Stirling's series.
-fn ln_gamma(mut z: f64) -> f64 {
-    let mut shift = 0.0;
-    while z < 10.0 {
-        shift -= z.ln();
-        z += 1.0;
-    }
-    let inv = 1.0 / z;
-    let inv2 = inv * inv;
-    let series = inv * (1.0 / 12.0 - inv2 * (1.0 / 360.0 - inv2 * (1.0 / 1260.0)));
-    shift + (z - 0.5) * z.ln() - z + 0.5 * (2.0 * std::f64::consts::PI).ln() + series
-}
-
-/// Regularised upper incomplete gamma Q(a, x): series below a + 1, continued fraction
-/// (modified Lentz) above.
-fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let log_prefactor = a * x.ln() - x - ln_gamma(a);
-    if x < a + 1.0 {
-        let (mut term, mut sum, mut n) = (1.0 / a, 1.0 / a, a);
-        for _ in 0..1000 {
-            n += 1.0;
-            term *= x / n;
-            sum += term;
-            if term.abs() < sum.abs() * 1e-15 {
-                break;
-            }
-        }
-        1.0 - sum * log_prefactor.exp()
-    } else {
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..1000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let delta = d * c;
-            h *= delta;
-            if (delta - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        log_prefactor.exp() * h
-    }
-}
-
-/// p-value of a chi-square statistic with `dof` degrees of freedom.
-fn chi2_p_value(statistic: f64, dof: usize) -> f64 {
-    gamma_q(0.5 * dof as f64, 0.5 * statistic)
 }
 
 /// Chi-square p-value of `samples` against the uniform distribution on [MIN, MAX),

@@ -400,9 +400,11 @@ impl Builder<'_> {
                 let ss = combine(&albedo, &sigma_t, |al, st| al * st)?;
                 (sa, ss)
             }
-            _ => return Err(format!(
+            _ => {
+                return Err(format!(
                 "{key}: expected `sigma_a` and/or `sigma_s`, or `albedo` together with `sigma_t`"
-            )),
+            ))
+            }
         };
         let g = m.g.unwrap_or(0.0);
         if !(g.is_finite() && g > -1.0 && g < 1.0) {

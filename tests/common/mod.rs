@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod oiio;
+pub mod stats;
 
 use std::path::{Path, PathBuf};
 use stokes::integrator::render::{render, Film, RenderOptions};
