@@ -425,18 +425,7 @@ impl Builder<'_> {
                         "{key}.dye.concentration: expected a non-negative number, found {c}"
                     ));
                 }
-                if !(0.0..=1.0).contains(&d.quantum_yield) {
-                    return Err(format!(
-                        "{key}.dye.quantum_yield: expected a number in [0, 1], found {}",
-                        d.quantum_yield
-                    ));
-                }
-                let cell = d.cell_nm.unwrap_or(2.0);
-                if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
-                    return Err(format!(
-                        "{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"
-                    ));
-                }
+                let cell = dye_params(key, d.quantum_yield, d.cell_nm)?;
                 let absorption = if c == 1.0 {
                     a
                 } else {
@@ -631,16 +620,7 @@ impl Builder<'_> {
                         })?;
                         let a = self.spectrum(&format!("{key}.dye.absorption"), &d.absorption, Some(Range::Unit))?;
                         let e = self.spectrum(&format!("{key}.dye.emission"), &d.emission, Some(Range::NonNegative))?;
-                        if !(0.0..=1.0).contains(&d.quantum_yield) {
-                            return Err(format!(
-                                "{key}.dye.quantum_yield: expected a number in [0, 1], found {}",
-                                d.quantum_yield
-                            ));
-                        }
-                        let cell = d.cell_nm.unwrap_or(2.0);
-                        if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
-                            return Err(format!("{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"));
-                        }
+                        let cell = dye_params(key, d.quantum_yield, d.cell_nm)?;
                         Reradiation::from_dye(diagonal, &a, &e, d.quantum_yield, cell)
                             .map_err(|e| format!("{key}.dye: {e}"))?
                     }
@@ -865,6 +845,22 @@ fn ior_from(key: &str, d: &IorDesc) -> Result<Ior, String> {
         }
     }
     Ok(ior)
+}
+
+/// Checks a dye's quantum yield and grid cell width; returns the cell width (default 2 nm).
+fn dye_params(key: &str, quantum_yield: f32, cell_nm: Option<f32>) -> Result<f32, String> {
+    if !(0.0..=1.0).contains(&quantum_yield) {
+        return Err(format!(
+            "{key}.dye.quantum_yield: expected a number in [0, 1], found {quantum_yield}"
+        ));
+    }
+    let cell = cell_nm.unwrap_or(2.0);
+    if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
+        return Err(format!(
+            "{key}.dye.cell_nm: expected a width in [0.5, 50] nm, found {cell}"
+        ));
+    }
+    Ok(cell)
 }
 
 /// A message on one line: control characters (say, a newline in a file name) escaped.
