@@ -538,9 +538,14 @@ fn cmd_info(path: &Path) -> Result<(), String> {
             ""
         }
     );
-    if scene.has_fluorescence() {
+    if scene.has_fluorescence() || scene.has_fluorescent_media() {
+        let wher = match (scene.has_fluorescence(), scene.has_fluorescent_media()) {
+            (true, true) => "surfaces and media",
+            (true, false) => "surfaces",
+            _ => "media",
+        };
         println!(
-            "fluorescence yes: fluorescent HWSS, --shifting independent (default) or constant; --spectral mono for one wavelength per path"
+            "fluorescence yes ({wher}): fluorescent HWSS, --shifting independent (default) or constant; --spectral mono for one wavelength per path"
         );
     } else {
         println!("fluorescence none: plain HWSS, no shift sampling (--shifting has no effect)");
@@ -548,14 +553,14 @@ fn cmd_info(path: &Path) -> Result<(), String> {
     if scene.has_media() {
         let (t, why) = scene.default_tracking();
         println!(
-            "media       {} ({}); default tracking {:?}: {why}",
+            "media       {} ({}); default tracking {}: {why}",
             scene.medium_names.join(", "),
             if scene.has_fluorescent_media() {
                 "fluorescent"
             } else {
                 "not fluorescent"
             },
-            t
+            t.name()
         );
     } else {
         println!("media       none: no distance tracking");
