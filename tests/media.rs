@@ -418,3 +418,93 @@ emission = { radiance = 1.0 }
     );
     assert!(region_mean(&f2, &centre).0[1] > 1.5 * want[1] as f64);
 }
+
+#[test]
+fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
+    // A scattering medium with a dye: HWSS (both shiftings) and mono, under max and
+    // fluorescence-aware tracking, estimate the same image.
+    let dyed = "sigma_s = 0.3\ng = 0.2\ndye = { absorption = { wavelengths = [360, 420, 470, 520], values = [0.5, 1, 0.6, 0] }, concentration = 1.5, emission = { wavelengths = [480, 520, 560, 640], values = [0, 1, 0.6, 0] }, quantum_yield = 0.9 }";
+    let mut scene = scene_from(&room_with_medium(dyed, None));
+    let run = |scene: &mut Scene, spp, seed, spectral, shifting, tracking| {
+        scene.set_resolution(24, 24);
+        let opts = RenderOptions {
+            width: 24,
+            height: 24,
+            spp,
+            seed,
+            max_depth: -1,
+            spectral,
+            shifting,
+            tracking: Some(tracking),
+            threads: 0,
+        };
+        let r = render(scene, &opts, &|| {}).unwrap();
+        assert_eq!(r.stats.nonfinite, 0);
+        r.film
+    };
+    let runs = [
+        (
+            "hwss independent fluo-aware",
+            run(
+                &mut scene,
+                128,
+                1,
+                Spectral::Hwss,
+                Shifting::Independent,
+                Tracking::FluoAware,
+            ),
+        ),
+        (
+            "hwss constant fluo-aware",
+            run(
+                &mut scene,
+                128,
+                2,
+                Spectral::Hwss,
+                Shifting::Constant,
+                Tracking::FluoAware,
+            ),
+        ),
+        (
+            "hwss independent max",
+            run(
+                &mut scene,
+                128,
+                3,
+                Spectral::Hwss,
+                Shifting::Independent,
+                Tracking::Max,
+            ),
+        ),
+        (
+            "mono fluo-aware",
+            run(
+                &mut scene,
+                512,
+                4,
+                Spectral::Mono,
+                Shifting::Independent,
+                Tracking::FluoAware,
+            ),
+        ),
+    ];
+    let block: Vec<usize> = (0..24 * 24usize)
+        .filter(|i| (i % 24).abs_diff(12) < 5 && (i / 24) >= 10 && (i / 24) < 20)
+        .collect();
+    for (name, px) in [("block", block), ("image", all_pixels(&runs[0].1))] {
+        let m: Vec<_> = runs
+            .iter()
+            .map(|(n, f)| (*n, region_mean(f, &px)))
+            .collect();
+        for i in 0..m.len() {
+            for j in i + 1..m.len() {
+                assert_agree(
+                    &format!("{name}: {} vs {}", m[i].0, m[j].0),
+                    m[i].1,
+                    m[j].1,
+                    4.0,
+                );
+            }
+        }
+    }
+}
