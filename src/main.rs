@@ -373,7 +373,7 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
     let film = &result.film;
     let spp = film.spp;
 
-    let tracking = opts.tracking.unwrap_or_else(|| scene.default_tracking().0);
+    let tracking = opts.path_options(&scene).tracking;
     let range = stokes::merge::SampleRange {
         seed: opts.seed,
         start: a.seed_offset as u64,

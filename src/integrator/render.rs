@@ -127,6 +127,19 @@ pub struct RenderResult {
     pub seconds: f64,
 }
 
+impl RenderOptions {
+    /// The estimator these options select, with the scene's default tracking resolved
+    /// (once per render, not per sample).
+    pub fn path_options(&self, scene: &Scene) -> PathOptions {
+        PathOptions {
+            spectral: self.spectral,
+            shifting: self.shifting,
+            tracking: self.tracking.unwrap_or_else(|| scene.default_tracking().0),
+            max_depth: self.max_depth,
+        }
+    }
+}
+
 /// One pixel sample: linear sRGB, or `None` if the estimate is NaN or infinite.
 #[inline]
 pub fn pixel_sample(
@@ -137,15 +150,18 @@ pub fn pixel_sample(
     sample: u32,
     stats: &mut PathStats,
 ) -> Option<Vec3> {
-    pixel_sample_checked(scene, opts, x, y, sample, false, stats)
+    let path = opts.path_options(scene);
+    pixel_sample_checked(scene, opts, &path, x, y, sample, false, stats)
 }
 
 /// [`pixel_sample`], with `poison` replacing the estimate by NaN before the finiteness
 /// check (the test hook [`Progressive::inject_nonfinite_every`]).
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn pixel_sample_checked(
     scene: &Scene,
     opts: &RenderOptions,
+    path: &PathOptions,
     x: u32,
     y: u32,
     sample: u32,
@@ -164,21 +180,7 @@ fn pixel_sample_checked(
     };
     // The shift stream: a second, independent stream of the same pixel sample.
     let mut shift_rng = LazyStream::new(opts.seed, pixel, sample as u64);
-    let path = PathOptions {
-        spectral: opts.spectral,
-        shifting: opts.shifting,
-        tracking: opts.tracking.unwrap_or_else(|| scene.default_tracking().0),
-        max_depth: opts.max_depth,
-    };
-    let l = radiance(
-        scene,
-        ray,
-        wl.lambda,
-        &path,
-        &mut rng,
-        &mut shift_rng,
-        stats,
-    );
+    let l = radiance(scene, ray, wl.lambda, path, &mut rng, &mut shift_rng, stats);
     let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(wl.lambda, l));
     let rgb = if poison { Vec3::NAN } else { rgb };
     if rgb.is_finite() {
@@ -235,6 +237,7 @@ fn render_pass_with(
 ) -> PathStats {
     let w = opts.width as usize;
     let pixels = opts.width as u64 * opts.height as u64;
+    let path = opts.path_options(scene);
     let stats: PathStats = film
         .sum
         .par_chunks_mut(w)
@@ -246,9 +249,9 @@ fn render_pass_with(
                 let pixel = (y * w + x) as u64;
                 for s in first..first + count {
                     let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
-                    if let Some(c) =
-                        pixel_sample_checked(scene, opts, x as u32, y as u32, s, poison, &mut st)
-                    {
+                    if let Some(c) = pixel_sample_checked(
+                        scene, opts, &path, x as u32, y as u32, s, poison, &mut st,
+                    ) {
                         let c = [c.x as f64, c.y as f64, c.z as f64];
                         for k in 0..3 {
                             sum[x][k] += c[k];
