@@ -7,7 +7,7 @@ use common::*;
 use glam::Vec3;
 use stokes::bsdf::Material;
 use stokes::color::xyz_to_linear_srgb;
-use stokes::integrator::render::{render, RenderOptions};
+use stokes::integrator::render::RenderOptions;
 use stokes::integrator::{radiance, PathOptions, PathStats, Shifting, Spectral};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
@@ -21,7 +21,6 @@ fn render_with(
     spectral: Spectral,
     shifting: Shifting,
 ) -> stokes::integrator::render::Film {
-    scene.set_resolution(res, res);
     let opts = RenderOptions {
         width: res,
         height: res,
@@ -33,9 +32,7 @@ fn render_with(
         tracking: None,
         threads: 0,
     };
-    let r = render(scene, &opts, &|| {}).unwrap();
-    assert_eq!(r.stats.nonfinite, 0, "non-finite samples");
-    r.film
+    render_opts(scene, &opts)
 }
 
 /// Pixels whose centres fall in the inner `keep` share of an axis-aligned rectangle on
@@ -128,19 +125,7 @@ fn methods_agree(file: &str) {
             ),
         ),
     ];
-    for (name, px) in &regs {
-        let means: Vec<_> = runs.iter().map(|(m, f)| (*m, region_mean(f, px))).collect();
-        for i in 0..means.len() {
-            for j in i + 1..means.len() {
-                assert_agree(
-                    &format!("{file}: {name}: {} vs {}", means[i].0, means[j].0),
-                    means[i].1,
-                    means[j].1,
-                    4.0,
-                );
-            }
-        }
-    }
+    assert_all_agree(file, &runs, &regs, 4.0);
 }
 
 #[test]

@@ -5,7 +5,7 @@
 mod common;
 use common::*;
 use glam::Vec4;
-use stokes::integrator::render::{render, Film, RenderOptions};
+use stokes::integrator::render::{Film, RenderOptions};
 use stokes::integrator::{radiance, PathOptions, PathStats, Shifting, Spectral};
 use stokes::medium::Tracking;
 use stokes::sampler::{LazyStream, Pcg32};
@@ -20,7 +20,6 @@ fn render_with(
     tracking: Tracking,
     max_depth: i32,
 ) -> Film {
-    scene.set_resolution(res, res);
     let opts = RenderOptions {
         width: res,
         height: res,
@@ -32,9 +31,7 @@ fn render_with(
         tracking: Some(tracking),
         threads: 0,
     };
-    let r = render(scene, &opts, &|| {}).unwrap();
-    assert_eq!(r.stats.nonfinite, 0, "non-finite samples");
-    r.film
+    render_opts(scene, &opts)
 }
 
 /// A box of medium `medium` (TOML body of [media.m]) in a grey room under a quad light.
@@ -137,22 +134,8 @@ fn tracking_methods_and_lane_counts_agree_in_a_non_fluorescent_medium() {
         let block: Vec<usize> = (0..24 * 24usize)
             .filter(|i| (i % 24).abs_diff(12) < 5 && (i / 24) >= 10 && (i / 24) < 20)
             .collect();
-        for (name, px) in [("block", block), ("image", all_pixels(&runs[0].1))] {
-            let m: Vec<_> = runs
-                .iter()
-                .map(|(n, f)| (*n, region_mean(f, &px)))
-                .collect();
-            for i in 0..m.len() {
-                for j in i + 1..m.len() {
-                    assert_agree(
-                        &format!("{boundary:?} {name}: {} vs {}", m[i].0, m[j].0),
-                        m[i].1,
-                        m[j].1,
-                        4.0,
-                    );
-                }
-            }
-        }
+        let regions = [("block", block), ("image", all_pixels(&runs[0].1))];
+        assert_all_agree(&format!("{boundary:?}"), &runs, &regions, 4.0);
     }
 }
 
@@ -426,7 +409,6 @@ fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
     let dyed = "sigma_s = 0.3\ng = 0.2\ndye = { absorption = { wavelengths = [360, 420, 470, 520], values = [0.5, 1, 0.6, 0] }, concentration = 1.5, emission = { wavelengths = [480, 520, 560, 640], values = [0, 1, 0.6, 0] }, quantum_yield = 0.9 }";
     let mut scene = scene_from(&room_with_medium(dyed, None));
     let run = |scene: &mut Scene, spp, seed, spectral, shifting, tracking| {
-        scene.set_resolution(24, 24);
         let opts = RenderOptions {
             width: 24,
             height: 24,
@@ -438,9 +420,7 @@ fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
             tracking: Some(tracking),
             threads: 0,
         };
-        let r = render(scene, &opts, &|| {}).unwrap();
-        assert_eq!(r.stats.nonfinite, 0);
-        r.film
+        render_opts(scene, &opts)
     };
     let runs = [
         (
@@ -491,20 +471,6 @@ fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
     let block: Vec<usize> = (0..24 * 24usize)
         .filter(|i| (i % 24).abs_diff(12) < 5 && (i / 24) >= 10 && (i / 24) < 20)
         .collect();
-    for (name, px) in [("block", block), ("image", all_pixels(&runs[0].1))] {
-        let m: Vec<_> = runs
-            .iter()
-            .map(|(n, f)| (*n, region_mean(f, &px)))
-            .collect();
-        for i in 0..m.len() {
-            for j in i + 1..m.len() {
-                assert_agree(
-                    &format!("{name}: {} vs {}", m[i].0, m[j].0),
-                    m[i].1,
-                    m[j].1,
-                    4.0,
-                );
-            }
-        }
-    }
+    let regions = [("block", block), ("image", all_pixels(&runs[0].1))];
+    assert_all_agree("fluorescent medium", &runs, &regions, 4.0);
 }

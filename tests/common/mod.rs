@@ -33,7 +33,16 @@ pub fn scene_file(name: &str) -> Scene {
     Scene::load(&root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Renders `scene` at `w`×`h`.
+/// Renders `scene` with `opts` (setting the camera to its resolution) and checks that no
+/// sample came out NaN or infinite.
+pub fn render_opts(scene: &mut Scene, opts: &RenderOptions) -> Film {
+    scene.set_resolution(opts.width, opts.height);
+    let r = render(scene, opts, &|| {}).unwrap();
+    assert_eq!(r.stats.nonfinite, 0, "non-finite samples");
+    r.film
+}
+
+/// Renders `scene` at `w`×`h` with independent shifting and the scene's default tracking.
 #[allow(clippy::too_many_arguments)]
 pub fn render_film(
     scene: &mut Scene,
@@ -45,7 +54,6 @@ pub fn render_film(
     max_depth: i32,
     threads: usize,
 ) -> Film {
-    scene.set_resolution(w, h);
     let opts = RenderOptions {
         width: w,
         height: h,
@@ -57,9 +65,24 @@ pub fn render_film(
         tracking: None,
         threads,
     };
-    let r = render(scene, &opts, &|| {}).unwrap();
-    assert_eq!(r.stats.nonfinite, 0, "non-finite samples");
-    r.film
+    render_opts(scene, &opts)
+}
+
+/// Asserts that every pair of `runs` agrees (Z-test at `z`) on every region.
+pub fn assert_all_agree(what: &str, runs: &[(&str, Film)], regions: &[(&str, Vec<usize>)], z: f64) {
+    for (name, px) in regions {
+        let m: Vec<_> = runs.iter().map(|(n, f)| (*n, region_mean(f, px))).collect();
+        for i in 0..m.len() {
+            for j in i + 1..m.len() {
+                assert_agree(
+                    &format!("{what}: {name}: {} vs {}", m[i].0, m[j].0),
+                    m[i].1,
+                    m[j].1,
+                    z,
+                );
+            }
+        }
+    }
 }
 
 /// Mean over a set of pixels and its standard error, per channel, from the pixels'
