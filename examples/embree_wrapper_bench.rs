@@ -18,7 +18,8 @@ use std::hint::black_box;
 use std::time::Instant;
 use stokes::accel::{set_flush_denormals, Coherence, Device, Ray, RayHit4, Scene};
 
-/// The same vertex and triangle order as `baseline.c`.
+/// The same vertex and triangle order, and f64 maths, as `baseline.c` (not
+/// `scene::shapes::uv_sphere`), so that the C and Rust drivers trace identical triangles.
 fn uv_sphere(stacks: u32, slices: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let mut v = vec![[0.0, 1.0, 0.0]];
     for i in 1..stacks {

@@ -10,7 +10,7 @@
 //! - Queries from a `thread_pool(2)` equal the serial ones.
 //! - Errors (Embree's own and ours) come back as `EmbreeError`s instead of aborting.
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use stokes::accel::{
     set_flush_denormals, thread_pool, Coherence, Device, EmbreeError, Hit, Ray, RayHit4, Scene,
@@ -94,45 +94,11 @@ impl Pcg32 {
 
 type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
 
-/// A UV sphere: `stacks` latitude bands, `slices` longitude segments, two poles;
-/// `2·slices·(stacks − 1)` triangles, wound so that `Ng` points outwards.
+/// The renderer's own UV sphere (`scene::shapes::uv_sphere`), as plain arrays.
 fn uv_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
-    let mut v = vec![[centre.x, centre.y + radius, centre.z]];
-    for i in 1..stacks {
-        let theta = std::f64::consts::PI * i as f64 / stacks as f64;
-        for j in 0..slices {
-            let phi = std::f64::consts::TAU * j as f64 / slices as f64;
-            let p = DVec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            );
-            let p = centre + (p * radius as f64).as_vec3();
-            v.push(p.to_array());
-        }
-    }
-    v.push([centre.x, centre.y - radius, centre.z]);
-    let south = v.len() as u32 - 1;
-    let ring = |i: u32, j: u32| 1 + (i - 1) * slices + j % slices;
-    let mut t = vec![];
-    for j in 0..slices {
-        t.push([0, ring(1, j + 1), ring(1, j)]);
-        t.push([south, ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
-    }
-    for i in 1..stacks - 1 {
-        for j in 0..slices {
-            let (a, b, c, d) = (
-                ring(i, j),
-                ring(i, j + 1),
-                ring(i + 1, j),
-                ring(i + 1, j + 1),
-            );
-            t.push([a, b, d]);
-            t.push([a, d, c]);
-        }
-    }
-    assert_eq!(t.len() as u32, 2 * slices * (stacks - 1));
-    (v, t)
+    let m = stokes::scene::shapes::uv_sphere(centre, radius, stacks, slices);
+    assert_eq!(m.indices.len() as u32, 2 * slices * (stacks - 1));
+    (m.positions, m.indices)
 }
 
 /// `n` random triangles with vertices within `size` of a centre uniform in `[lo, hi]`.
