@@ -19,16 +19,6 @@ pub struct Emitter {
 }
 
 impl Emitter {
-    /// Radiance leaving towards a direction whose cosine with the front normal is `cos`.
-    #[inline]
-    pub fn radiance(&self, lambda: Vec4, cos: f32) -> Vec4 {
-        if cos > 0.0 || (self.two_sided && cos < 0.0) {
-            self.radiance.eval4(lambda) * self.scale
-        } else {
-            Vec4::ZERO
-        }
-    }
-
     /// Whether it emits towards a direction whose cosine with the front normal is `cos`.
     #[inline]
     pub fn emits_towards(&self, cos: f32) -> bool {
@@ -209,15 +199,5 @@ impl Lights {
             .copied()
             .flatten()
             .map(|first| self.triangles[first as usize].emitter)
-    }
-
-    /// The emitter of geometry `geom`, if it emits.
-    #[inline]
-    pub fn emitter_of(&self, geom: u32) -> Option<&Emitter> {
-        self.first_triangle
-            .get(geom as usize)
-            .copied()
-            .flatten()
-            .map(|first| &self.emitters[self.triangles[first as usize].emitter as usize])
     }
 }

@@ -188,14 +188,6 @@ pub enum Lobe {
 }
 
 impl Material {
-    /// Whether every scattering event is a Dirac delta (no light sampling helps).
-    pub fn is_specular(&self) -> bool {
-        !matches!(
-            self,
-            Material::Diffuse { .. } | Material::FluorescentDiffuse { .. }
-        )
-    }
-
     /// The material at the wavelengths `lambda`; for a fluorescent material, the part left
     /// after the wavelength shift has been sampled (a white Lambertian).
     #[inline]
@@ -206,25 +198,6 @@ impl Material {
             Material::FluorescentDiffuse { .. } => Lobe::Diffuse(Vec4::ONE),
             Material::Dielectric { ior, ext_ior } => Lobe::Dielectric(ior.eval4(lambda), *ext_ior),
         }
-    }
-
-    /// f·|cos θᵢ| and per-lane pdf (see [`Lobe::eval`]).
-    #[inline]
-    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, lambda: Vec4) -> (Vec4, Vec4) {
-        self.at(lambda).eval(n, wo, wi)
-    }
-
-    /// Samples a direction with the hero's wavelength (see [`Lobe::sample`]).
-    #[inline]
-    pub fn sample(
-        &self,
-        n: Vec3,
-        wo: Vec3,
-        lambda: Vec4,
-        uc: f32,
-        u: [f32; 2],
-    ) -> Option<BsdfSample> {
-        self.at(lambda).sample(n, wo, uc, u)
     }
 }
 
@@ -365,10 +338,10 @@ mod tests {
         };
         let lambda = Vec4::new(400.0, 517.5, 635.0, 752.5);
         let s = m
+            .at(lambda)
             .sample(
                 Vec3::Z,
                 Vec3::new(0.3, 0.0, 0.95).normalize(),
-                lambda,
                 0.99,
                 [0.5, 0.5],
             )
