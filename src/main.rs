@@ -9,7 +9,7 @@ use std::time::Instant;
 use stokes::integrator::render::{
     render_progressive, PassDone, Progressive, RenderOptions, Stopped,
 };
-use stokes::integrator::{Shifting, Spectral};
+use stokes::integrator::{Dispersion, Rays, Shifting, Spectral};
 use stokes::medium::tracking::Tracking;
 use stokes::scene::Scene;
 
@@ -80,24 +80,9 @@ struct MergeArgs {
     variance: bool,
 }
 
-#[derive(Args, Clone)]
-struct RenderArgs {
-    /// The scene file (TOML).
-    scene: PathBuf,
-    /// Output EXR (default: out/<scene name>.exr).
-    #[arg(short, long)]
-    output: Option<PathBuf>,
-    /// Samples per pixel (default: the scene's; with --time, a maximum).
-    #[arg(long)]
-    spp: Option<u32>,
-    /// Render whole 1-spp passes while the next one is expected to end within this many
-    /// seconds (scene loading not counted); --spp, if given, is then a maximum.
-    #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true)]
-    time: Option<f64>,
-    /// Draw sample indices [K, K + spp) instead of [0, spp): parts with disjoint ranges
-    /// are independent and can be merged with `stokes merge`.
-    #[arg(long, default_value_t = 0)]
-    seed_offset: u32,
+/// The options every rendering command shares: image size, seed, threads and the method.
+#[derive(Args, Clone, Debug)]
+pub struct MethodArgs {
     /// Resolution WxH (default: the scene's).
     #[arg(long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
@@ -120,6 +105,76 @@ struct RenderArgs {
     /// Path segments from the camera: 1 = emitters only, 2 = direct light, −1 = unbounded.
     #[arg(long, allow_negative_numbers = true)]
     max_depth: Option<i32>,
+    /// Trace four paths per Embree packet, or one path at a time.
+    #[arg(long, value_enum, default_value_t = Rays::default())]
+    rays: Rays,
+    /// At a dispersive refraction: drop the three secondary wavelengths, or split the
+    /// path into four single-wavelength paths.
+    #[arg(long, value_enum, default_value_t = Dispersion::default())]
+    dispersion: Dispersion,
+}
+
+impl MethodArgs {
+    /// The render options these flags give for `scene` (loaded from `path`), with `spp`
+    /// samples per pixel; sets the camera's resolution.
+    fn options(&self, scene: &mut Scene, path: &Path, spp: u32) -> Result<RenderOptions, String> {
+        let (width, height) = match self.res {
+            Some(r) => r,
+            None => {
+                let (w, h) = (scene.camera.width, scene.camera.height);
+                if w > MAX_SIDE || h > MAX_SIDE {
+                    return Err(format!(
+                        "{}: camera.resolution: expected sizes in 1..={MAX_SIDE}, found [{w}, {h}] (--res overrides it)",
+                        path.display()
+                    ));
+                }
+                (w, h)
+            }
+        };
+        scene.set_resolution(width, height);
+        let opts = RenderOptions {
+            width,
+            height,
+            spp,
+            seed: self.seed.unwrap_or(scene.render.seed),
+            max_depth: self.max_depth.unwrap_or(scene.render.max_depth),
+            spectral: self.spectral,
+            shifting: self.shifting,
+            tracking: self.tracking,
+            threads: self.threads,
+            rays: self.rays,
+            dispersion: self.dispersion,
+        };
+        if opts.max_depth == 0 || opts.max_depth < -1 {
+            return Err(format!(
+                "--max-depth: expected −1 or a depth ≥ 1, found {}",
+                opts.max_depth
+            ));
+        }
+        Ok(opts)
+    }
+}
+
+#[derive(Args, Clone)]
+struct RenderArgs {
+    /// The scene file (TOML).
+    scene: PathBuf,
+    /// Output EXR (default: out/<scene name>.exr).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Samples per pixel (default: the scene's; with --time, a maximum).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Render whole 1-spp passes while the next one is expected to end within this many
+    /// seconds (scene loading not counted); --spp, if given, is then a maximum.
+    #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true)]
+    time: Option<f64>,
+    /// Draw sample indices [K, K + spp) instead of [0, spp): parts with disjoint ranges
+    /// are independent and can be merged with `stokes merge`.
+    #[arg(long, default_value_t = 0)]
+    seed_offset: u32,
+    #[command(flatten)]
+    method: MethodArgs,
     /// Also write an sRGB PNG preview beside the EXR.
     #[arg(long)]
     png: bool,
@@ -248,44 +303,17 @@ fn install_interrupt_handler(bar: Option<indicatif::ProgressBar>) {
 
 fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
     let (mut scene, scene_hash) = load_with_hash(&a.scene)?;
-    let (width, height) = match a.res {
-        Some(r) => r,
-        None => {
-            let (w, h) = (scene.camera.width, scene.camera.height);
-            if w > MAX_SIDE || h > MAX_SIDE {
-                return Err(format!(
-                    "{}: camera.resolution: expected sizes in 1..={MAX_SIDE}, found [{w}, {h}] (--res overrides it)",
-                    a.scene.display()
-                ));
-            }
-            (w, h)
-        }
-    };
-    scene.set_resolution(width, height);
     // With a time budget, --spp is a maximum and the scene's spp does not apply.
     let max_spp = match (a.time, a.spp) {
         (Some(_), spp) => spp,
         (None, spp) => Some(spp.unwrap_or(scene.render.spp)),
     };
-    let opts = RenderOptions {
-        width,
-        height,
-        spp: max_spp.unwrap_or(0),
-        seed: a.seed.unwrap_or(scene.render.seed),
-        max_depth: a.max_depth.unwrap_or(scene.render.max_depth),
-        spectral: a.spectral,
-        shifting: a.shifting,
-        tracking: a.tracking,
-        threads: a.threads,
-    };
+    let opts = a
+        .method
+        .options(&mut scene, &a.scene, max_spp.unwrap_or(0))?;
+    let (width, height) = (opts.width, opts.height);
     if max_spp == Some(0) {
         return Err("--spp: expected at least 1".into());
-    }
-    if opts.max_depth == 0 || opts.max_depth < -1 {
-        return Err(format!(
-            "--max-depth: expected −1 or a depth ≥ 1, found {}",
-            opts.max_depth
-        ));
     }
     if let Some(n) = max_spp {
         if a.seed_offset.checked_add(n).is_none() {
@@ -390,6 +418,8 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
         ("shifting".to_string(), opts.shifting.name().to_string()),
         ("tracking".to_string(), tracking.name().to_string()),
         ("max_depth".to_string(), opts.max_depth.to_string()),
+        ("rays".to_string(), opts.rays.name().to_string()),
+        ("dispersion".to_string(), opts.dispersion.name().to_string()),
         (
             "render_seconds".to_string(),
             format!("{:.3}", result.seconds),
@@ -439,6 +469,8 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
             "rays": result.stats.rays,
             "rays_per_second": rps,
             "spectral": opts.spectral.name(),
+            "rays": opts.rays.name(),
+            "dispersion": opts.dispersion.name(),
             "nonfinite_samples": result.stats.nonfinite,
             "seed": opts.seed,
             "seed_offset": a.seed_offset,

@@ -128,7 +128,13 @@ pub struct Part {
 
 /// The render settings that must agree for parts to be merged (besides the scene and
 /// the size): they change the image or the estimator.
-pub const SETTINGS: [&str; 4] = ["spectral", "shifting", "tracking", "max_depth"];
+pub const SETTINGS: [&str; 5] = [
+    "spectral",
+    "shifting",
+    "tracking",
+    "max_depth",
+    "dispersion",
+];
 
 impl Part {
     /// Reads an EXR and its stokes header; errors name the file and the missing or

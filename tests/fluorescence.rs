@@ -31,6 +31,8 @@ fn render_with(
         shifting,
         tracking: None,
         threads: 0,
+        rays: Default::default(),
+        dispersion: Default::default(),
     };
     render_opts(scene, &opts)
 }

@@ -30,6 +30,8 @@ fn render_with(
         shifting: Shifting::Independent,
         tracking: Some(tracking),
         threads: 0,
+        rays: Default::default(),
+        dispersion: Default::default(),
     };
     render_opts(scene, &opts)
 }
@@ -419,6 +421,8 @@ fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
             shifting,
             tracking: Some(tracking),
             threads: 0,
+            rays: Default::default(),
+            dispersion: Default::default(),
         };
         render_opts(scene, &opts)
     };

@@ -65,6 +65,51 @@ impl Shifting {
     }
 }
 
+/// How the rays of a render are traced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Rays {
+    /// Four paths travel together through Embree's 4-wide queries (a 2×2 pixel quad for
+    /// camera rays; surviving paths regrouped into full packets at every bounce).
+    Packet,
+    /// One path at a time, depth first, through single-ray queries.
+    #[default]
+    Single,
+}
+
+impl Rays {
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Rays::Packet => "packet",
+            Rays::Single => "single",
+        }
+    }
+}
+
+/// What a path does at a dispersive refraction, where its four wavelengths leave in four
+/// directions (HWSS only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dispersion {
+    /// Keep the hero, drop the three secondary lanes (pbrt-v4 and Mitsuba 3 do this).
+    #[default]
+    Drop,
+    /// Split the path into four single-wavelength paths that share the prefix's MIS
+    /// weights; in packet mode they travel on as one packet.
+    Split,
+}
+
+impl Dispersion {
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Dispersion::Drop => "drop",
+            Dispersion::Split => "split",
+        }
+    }
+}
+
 /// Counters of one render (summed over threads).
 #[derive(Debug, Default, Clone, Copy)]
 pub struct PathStats {
@@ -91,6 +136,8 @@ pub struct PathOptions {
     pub tracking: Tracking,
     /// Path segments from the camera, −1 for unbounded.
     pub max_depth: i32,
+    /// Dispersive refraction: drop the secondary lanes or split the path.
+    pub dispersion: Dispersion,
 }
 
 /// The last emitter's spectral radiance at the path's wavelengths: a path meets the same

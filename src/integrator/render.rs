@@ -4,7 +4,7 @@
 //! pixel's samples are accumulated in order by one thread, so the image is the same
 //! whatever the number of threads.
 
-use super::{radiance, PathOptions, PathStats, Shifting, Spectral};
+use super::{radiance, Dispersion, PathOptions, PathStats, Rays, Shifting, Spectral};
 use crate::color;
 use crate::medium::tracking::Tracking;
 use crate::sampler::{LazyStream, Pcg32};
@@ -37,6 +37,10 @@ pub struct RenderOptions {
     pub tracking: Option<Tracking>,
     /// Worker threads (0 = one per core).
     pub threads: usize,
+    /// Packets of four paths or single rays.
+    pub rays: Rays,
+    /// Dispersive refraction: drop the secondary lanes or split the path.
+    pub dispersion: Dispersion,
 }
 
 /// Per-pixel sums of linear sRGB samples: the mean and the variance of the mean.
@@ -136,6 +140,7 @@ impl RenderOptions {
             shifting: self.shifting,
             tracking: self.tracking.unwrap_or_else(|| scene.default_tracking().0),
             max_depth: self.max_depth,
+            dispersion: self.dispersion,
         }
     }
 }

@@ -64,6 +64,8 @@ pub fn render_film(
         shifting: stokes::integrator::Shifting::Independent,
         tracking: None,
         threads,
+        rays: Default::default(),
+        dispersion: Default::default(),
     };
     render_opts(scene, &opts)
 }
