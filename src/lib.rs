@@ -7,6 +7,7 @@
 
 pub mod accel;
 pub mod bench_rays;
+pub mod bench_render;
 pub mod bsdf;
 pub mod camera;
 pub mod color;

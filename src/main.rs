@@ -47,6 +47,52 @@ enum Command {
 enum BenchCommand {
     /// Embree ray throughput: single rays against 4-wide packets.
     Rays(BenchRaysArgs),
+    /// Path-tracing throughput: packets of four paths against single rays, by depth and
+    /// thread count, in one run.
+    Render(BenchRenderArgs),
+}
+
+#[derive(Args)]
+struct BenchRenderArgs {
+    /// The scene file (TOML).
+    scene: PathBuf,
+    /// Ray modes to compare, comma-separated (single, packet, lockstep).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "single,packet"
+    )]
+    rays: Vec<Rays>,
+    /// Path depths, comma-separated; −1 is unbounded (1 = camera rays only).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        default_value = "1,3,-1"
+    )]
+    max_depth: Vec<i32>,
+    /// Thread counts, comma-separated (0 = one per core).
+    #[arg(long, value_delimiter = ',', default_value = "1,0")]
+    threads: Vec<usize>,
+    /// Resolution WxH (default: the scene's).
+    #[arg(long, value_parser = parse_res)]
+    res: Option<(u32, u32)>,
+    /// Wavelength sampling.
+    #[arg(long, value_enum, default_value_t = Spectral::Hwss)]
+    spectral: Spectral,
+    /// Dispersive refraction: drop or split.
+    #[arg(long, value_enum, default_value_t = Dispersion::default())]
+    dispersion: Dispersion,
+    /// Target seconds per figure (split over the repetitions).
+    #[arg(long, default_value_t = 2.0)]
+    seconds: f64,
+    /// Runs per figure; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    repetitions: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args)]
@@ -228,6 +274,9 @@ fn main() -> ExitCode {
         Command::Bench {
             what: BenchCommand::Rays(a),
         } => cmd_bench_rays(&a).map(|()| ExitCode::SUCCESS),
+        Command::Bench {
+            what: BenchCommand::Render(a),
+        } => cmd_bench_render(&a).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,
@@ -596,6 +645,66 @@ fn cmd_info(path: &Path) -> Result<(), String> {
         );
     } else {
         println!("media       none: no distance tracking");
+    }
+    Ok(())
+}
+
+fn cmd_bench_render(a: &BenchRenderArgs) -> Result<(), String> {
+    if let Some(&d) = a.max_depth.iter().find(|&&d| d == 0 || d < -1) {
+        return Err(format!("--max-depth: expected −1 or depths ≥ 1, found {d}"));
+    }
+    if a.rays.is_empty() || a.max_depth.is_empty() || a.threads.is_empty() {
+        return Err("--rays, --max-depth and --threads each need at least one value".into());
+    }
+    if !(a.seconds.is_finite() && a.seconds > 0.0) {
+        return Err(format!(
+            "--seconds: expected a positive number, found {}",
+            a.seconds
+        ));
+    }
+    let mut scene = load(&a.scene)?;
+    let (width, height) = a.res.unwrap_or((scene.camera.width, scene.camera.height));
+    scene.set_resolution(width, height);
+    let base = RenderOptions {
+        width,
+        height,
+        spp: 1,
+        seed: scene.render.seed,
+        max_depth: -1,
+        spectral: a.spectral,
+        shifting: Shifting::Independent,
+        tracking: None,
+        threads: 0,
+        rays: Rays::Single,
+        dispersion: a.dispersion,
+    };
+    let opts = stokes::bench_render::RenderBenchOptions {
+        base,
+        rays: a.rays.clone(),
+        depths: a.max_depth.clone(),
+        threads: a.threads.clone(),
+        seconds: a.seconds,
+        repetitions: a.repetitions,
+    };
+    let json = a.json;
+    let report = stokes::bench_render::bench_render(&scene, &opts, &mut |r| {
+        if !json {
+            eprintln!(
+                "  {} threads, depth {}, {}: {:.3} M samples/s",
+                r.threads,
+                r.max_depth,
+                r.rays,
+                r.samples_per_second / 1e6
+            );
+        }
+    })?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).map_err(|e| e.to_string())?
+        );
+    } else {
+        print!("{}", stokes::bench_render::format_table(&report));
     }
     Ok(())
 }

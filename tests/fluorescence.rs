@@ -211,21 +211,22 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
         let (mut sum, mut sq) = (0.0f64, 0.0f64);
         let mut stats = PathStats::default();
         for i in 0..n {
-            let mut rng = Pcg32::for_sample(3, lambda_o as u64, i);
-            let mut shift = LazyStream::new(3, lambda_o as u64, i);
+            let rng = Pcg32::for_sample(3, lambda_o as u64, i);
+            let shift = LazyStream::new(3, lambda_o as u64, i);
             let opts = PathOptions {
                 spectral: Spectral::Mono,
                 shifting: Shifting::Independent,
                 tracking: stokes::medium::tracking::Tracking::Classic,
                 max_depth: -1,
+                dispersion: Default::default(),
             };
             let l = radiance(
                 &scene,
                 ray,
                 glam::Vec4::splat(lambda_o),
                 &opts,
-                &mut rng,
-                &mut shift,
+                rng,
+                shift,
                 &mut stats,
             );
             let v = l.x as f64;

@@ -247,19 +247,20 @@ fn estimate(scene: &Scene, lambda_o: f32, tracking: Tracking, n: u64) -> (f64, f
         shifting: Shifting::Independent,
         tracking,
         max_depth: 2,
+        dispersion: Default::default(),
     };
     let (mut s, mut q) = (0.0f64, 0.0f64);
     let mut stats = PathStats::default();
     for i in 0..n {
-        let mut rng = Pcg32::for_sample(17, lambda_o as u64, i);
-        let mut shift = LazyStream::new(17, lambda_o as u64, i);
+        let rng = Pcg32::for_sample(17, lambda_o as u64, i);
+        let shift = LazyStream::new(17, lambda_o as u64, i);
         let v = radiance(
             scene,
             ray,
             Vec4::splat(lambda_o),
             &opts,
-            &mut rng,
-            &mut shift,
+            rng,
+            shift,
             &mut stats,
         )
         .x as f64;

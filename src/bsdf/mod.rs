@@ -298,6 +298,32 @@ impl Lobe {
     }
 }
 
+impl Lobe {
+    /// The refraction of every lane at a dielectric, for splitting a path whose lanes
+    /// leave a dispersive interface in different directions. Per lane: its own refracted
+    /// direction (`None` under total internal reflection), f·|cos θᵢ| = (1 − F)/η², and
+    /// the probability 1 − F with which that lane, as hero, chooses refraction (no lane is
+    /// masked, unlike [`Lobe::sample`]). `None` for a lobe that does not refract.
+    #[inline]
+    pub fn refract_lanes(&self, n: Vec3, wo: Vec3) -> Option<([Option<Vec3>; 4], Vec4, Vec4)> {
+        let Lobe::Dielectric(n_in, ext_ior) = *self else {
+            return None;
+        };
+        let cos_o = n.dot(wo);
+        let entering = cos_o > 0.0;
+        let ns = if entering { n } else { -n };
+        let eta = if entering {
+            n_in / ext_ior
+        } else {
+            Vec4::splat(ext_ior) / n_in
+        };
+        let c = cos_o.abs();
+        let t = Vec4::from_array(std::array::from_fn(|k| 1.0 - fresnel_dielectric(c, eta[k])));
+        let wi = std::array::from_fn(|k| refract(wo, ns, eta[k]));
+        Some((wi, t / (eta * eta), t))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

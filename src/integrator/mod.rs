@@ -13,17 +13,19 @@
 //! hero's units. Monochromatic mode is the same code with lanes 1–3 dead from the start
 //! (`ratio = (1, 0, 0, 0)`).
 
+pub mod packet;
+pub mod path;
 pub mod render;
 
 use crate::accel::Ray;
-use crate::bsdf::Material;
 use crate::fluoro::Reradiation;
-use crate::medium::tracking::{self, DistanceSample, Tracking};
+use crate::medium::tracking::{self, Tracking};
 use crate::medium::Homogeneous;
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
+use path::Path;
 
 /// How wavelengths are sampled per path.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -72,6 +74,9 @@ pub enum Rays {
     /// Four paths travel together through Embree's 4-wide queries (a 2×2 pixel quad for
     /// camera rays; surviving paths regrouped into full packets at every bounce).
     Packet,
+    /// Like `packet`, but the four paths of a quad stay together and ended paths leave
+    /// their lanes empty (no regrouping; to measure what regrouping buys).
+    Lockstep,
     /// One path at a time, depth first, through single-ray queries.
     #[default]
     Single,
@@ -82,6 +87,7 @@ impl Rays {
     pub fn name(self) -> &'static str {
         match self {
             Rays::Packet => "packet",
+            Rays::Lockstep => "lockstep",
             Rays::Single => "single",
         }
     }
@@ -121,7 +127,7 @@ pub struct PathStats {
 
 /// Offset for spawning rays off a surface, relative to the scene's scale.
 #[inline]
-fn spawn_eps(p: Vec3) -> f32 {
+pub(crate) fn spawn_eps(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
@@ -143,7 +149,7 @@ pub struct PathOptions {
 /// The last emitter's spectral radiance at the path's wavelengths: a path meets the same
 /// light again and again (every light sample, every emitter hit), and its wavelengths do
 /// not change between fluorescent events.
-#[derive(Default)]
+#[derive(Default, Clone)]
 struct EmissionCache {
     emitter: Option<u32>,
     value: Vec4,
@@ -266,6 +272,8 @@ struct PrevVertex {
 /// Radiance along a camera ray at the wavelengths `lambda`, already weighted by the
 /// balance heuristic over lanes: summing `xyz(λ_k)·L_k / pdf(λ)` over the lanes gives an
 /// unbiased XYZ estimate (at the camera's wavelengths, whatever shifts happen later).
+/// Single rays, depth first; see [`path`] for the steps and [`packet`] for the same
+/// estimator over 4-wide packets.
 ///
 /// `shift_rng` draws the wavelength shifts at fluorescent events: a stream of its own,
 /// so that a scene renders with the same main random numbers whether or not a material
@@ -275,282 +283,46 @@ pub fn radiance(
     camera_ray: Ray,
     lambda: Vec4,
     opts: &PathOptions,
-    rng: &mut Pcg32,
-    shift_rng: &mut LazyStream,
+    rng: Pcg32,
+    shift_rng: LazyStream,
     stats: &mut PathStats,
 ) -> Vec4 {
+    let path = Path::new(scene, camera_ray, lambda, opts, rng, shift_rng, 0);
     // Scenes without media get a path loop with the medium code compiled out.
     if scene.has_media() {
-        radiance_impl::<true>(scene, camera_ray, lambda, opts, rng, shift_rng, stats)
+        trace_single::<true>(scene, opts, path, stats)
     } else {
-        radiance_impl::<false>(scene, camera_ray, lambda, opts, rng, shift_rng, stats)
+        trace_single::<false>(scene, opts, path, stats)
     }
 }
 
-/// [`radiance`] for scenes with (`MEDIA = true`) or without participating media.
-fn radiance_impl<const MEDIA: bool>(
+/// Runs `path` and the paths it splits into to the end with single-ray queries.
+fn trace_single<const MEDIA: bool>(
     scene: &Scene,
-    camera_ray: Ray,
-    mut lambda: Vec4,
     opts: &PathOptions,
-    rng: &mut Pcg32,
-    shift_rng: &mut LazyStream,
+    path: Path,
     stats: &mut PathStats,
 ) -> Vec4 {
-    let mut beta = match opts.spectral {
-        Spectral::Hwss => Vec4::ONE,
-        Spectral::Mono => Vec4::X,
-    };
-    let lanes = match opts.spectral {
-        Spectral::Hwss => opts.shifting,
-        Spectral::Mono => Shifting::Independent,
-    };
-    let max_depth = opts.max_depth;
-    let mut ratio = beta;
-    let mut l = Vec4::ZERO;
-    let mut ray = camera_ray;
-    let mut prev: Option<PrevVertex> = None;
-    let mut depth: i32 = 0;
-    let lights = &scene.lights;
-    let mut le_cache = EmissionCache::default();
-    let mut medium = scene.camera_medium;
-    let mut crossings = 0u32;
-
-    loop {
-        stats.rays += 1;
-        let hit = scene.accel.intersect1(&ray);
-
-        // Distance sampling in the current medium, hero-driven with per-lane pdfs.
-        if let (true, Some(m)) = (MEDIA, medium) {
-            let Some(h) = hit else { break }; // left a medium that is not closed
-            let med = &scene.media[m as usize];
-            let (st, ss) = (med.sigma_t_hat(lambda), med.sigma_s_hat(lambda));
-            let d = h.t * ray.dir.length();
-            match tracking::sample_distance(opts.tracking, st, ss, d, rng.next_f32()) {
-                DistanceSample::Collision { t } => {
-                    let pdf = tracking::pdf_collision(opts.tracking, st, ss, d, t);
-                    if pdf.x <= 0.0 {
-                        break;
-                    }
-                    beta *= tracking::transmittance(st, t) / pdf.x;
-                    ratio *= pdf / pdf.x;
-                    depth += 1;
-                    if max_depth >= 0 && depth >= max_depth {
-                        break;
-                    }
-                    let p = ray.org + ray.dir.normalize() * t;
-                    let wo = -ray.dir.normalize();
-                    // The scattering coefficient σ̂_s enters through the shift sample
-                    // (its value over its pdf is σ̂_s: elastic or fluorescent).
-                    if !shift_wavelengths(
-                        med,
-                        lanes,
-                        &mut lambda,
-                        &mut beta,
-                        &mut ratio,
-                        shift_rng.get(),
-                    ) {
-                        break;
-                    }
-                    le_cache = EmissionCache::default();
-                    let phase = med.phase();
-                    // Next-event estimation through the medium, MIS against phase sampling.
-                    let u_light = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
-                    if let Some(ls) = lights.sample(u_light) {
-                        let to = ls.p - p;
-                        let d2 = to.length_squared();
-                        let dist = d2.sqrt();
-                        let wi = to / dist;
-                        let cos_l = ls.n.dot(-wi);
-                        if dist > 0.0 && lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
-                            let le = le_cache.get(ls.emitter, lambda, lights);
-                            let f = phase.eval_dirs(wo, wi);
-                            let pdf_dir = phase.pdf(wo, wi);
-                            let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
-                            if let Some((tr, pass)) = shadow_transmittance(
-                                scene,
-                                sray,
-                                Some(m),
-                                lambda,
-                                opts.tracking,
-                                stats,
-                            ) {
-                                let p_light = ls.pdf_area * d2 / cos_l.abs();
-                                let denom =
-                                    (ratio * (Vec4::splat(p_light) + pass * pdf_dir)).element_sum();
-                                l += beta * tr * le * (f / denom);
-                            }
-                        }
-                    }
-                    let (wi, pdf_dir) = phase.sample(wo, rng.next_2d());
-                    if pdf_dir <= 0.0 {
-                        break;
-                    }
-                    // Phase sampling is exact (f = pdf) and the same for every lane.
-                    prev = Some(PrevVertex {
-                        pdf_dir: Vec4::splat(pdf_dir),
-                        ratio,
-                        p,
-                        pass: Vec4::ONE,
-                    });
-                    if !russian_roulette(&mut beta, depth, rng) {
-                        break;
-                    }
-                    ray = Ray::new(p, wi);
-                    continue;
-                }
-                DistanceSample::Surface => {
-                    let ps = tracking::prob_surface(opts.tracking, st, ss, d);
-                    if ps.x <= 0.0 {
-                        break;
-                    }
-                    beta *= tracking::transmittance(st, d) / ps.x;
-                    ratio *= ps / ps.x;
-                    if let Some(pv) = prev.as_mut() {
-                        pv.pass *= ps;
-                    }
+    let mut acc = Vec4::ZERO;
+    let mut split: Vec<Path> = Vec::new(); // allocates only when a path splits
+    let mut next = Some(path);
+    while let Some(mut p) = next.take().or_else(|| split.pop()) {
+        loop {
+            let hit = scene.accel.intersect1(&p.ray);
+            let mut shadow = None;
+            let alive = p.step::<MEDIA>(scene, opts, hit, stats, &mut shadow, &mut split);
+            if let Some(s) = shadow {
+                if !scene.accel.occluded1(&s.ray) {
+                    p.l += s.contribution;
                 }
             }
-        }
-
-        let Some(hit) = hit else { break };
-        let p = ray.org + ray.dir * hit.t;
-        let ng = hit.ng.normalize();
-        let geom = &scene.geometries[hit.geom_id as usize];
-
-        // An index-matched medium boundary: cross it without scattering.
-        if MEDIA && geom.is_null_interface() {
-            crossings += 1;
-            if crossings > 256 {
+            if !alive {
                 break;
             }
-            medium = medium_after_crossing(scene, hit.geom_id, ng, ray.dir);
-            let eps = spawn_eps(p);
-            ray = Ray::new(p + ng * (eps * ng.dot(ray.dir).signum()), ray.dir);
-            continue;
         }
-        depth += 1;
-        let wo = -ray.dir;
-
-        if let Some(e) = lights.emitter_index_of(hit.geom_id) {
-            let le = if lights.emitters[e as usize].emits_towards(ng.dot(wo)) {
-                le_cache.get(e, lambda, lights)
-            } else {
-                Vec4::ZERO
-            };
-            if le != Vec4::ZERO {
-                match prev {
-                    None => l += beta * le / ratio.element_sum(),
-                    Some(pv) => {
-                        let d2 = (p - pv.p).length_squared();
-                        let cos_l = ng.dot(wo).abs();
-                        let p_light =
-                            lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
-                        let p_dir = pv.pdf_dir * pv.pass;
-                        let denom = (pv.ratio * (p_dir + Vec4::splat(p_light))).element_sum();
-                        // beta already holds f/p_dir,0 (and the passes' T/P_0): put the
-                        // hero's pdf back.
-                        l += beta * le * (p_dir.x / denom);
-                    }
-                }
-            }
-        }
-        if max_depth >= 0 && depth >= max_depth {
-            break;
-        }
-        let Some(mat_id) = geom.material else {
-            break;
-        };
-        let mat = &scene.materials[mat_id as usize];
-        if let Material::FluorescentDiffuse { reradiation } = mat {
-            if !shift_wavelengths(
-                reradiation.as_ref(),
-                lanes,
-                &mut lambda,
-                &mut beta,
-                &mut ratio,
-                shift_rng.get(),
-            ) {
-                break;
-            }
-            le_cache = EmissionCache::default();
-        }
-        let material = mat.at(lambda);
-
-        // Next-event estimation: one point on a light, MIS against BSDF sampling.
-        let u_light = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
-        if !material.is_specular() {
-            if let Some(ls) = lights.sample(u_light) {
-                let to = ls.p - p;
-                let d2 = to.length_squared();
-                let d = d2.sqrt();
-                let wi = to / d;
-                let cos_l = ls.n.dot(-wi);
-                if d > 0.0 && lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
-                    let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi);
-                    if f_cos != Vec4::ZERO {
-                        let le = le_cache.get(ls.emitter, lambda, lights);
-                        let p_light = ls.pdf_area * d2 / cos_l.abs();
-                        let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
-                        let unoccluded = if MEDIA {
-                            // Leaving the surface towards wi: which medium is the shadow ray in?
-                            let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
-                                medium
-                            } else {
-                                medium_after_crossing(scene, hit.geom_id, ng, wi)
-                            };
-                            shadow_transmittance(scene, sray, m_out, lambda, opts.tracking, stats)
-                        } else {
-                            stats.rays += 1;
-                            (!scene.accel.occluded1(&sray)).then_some((Vec4::ONE, Vec4::ONE))
-                        };
-                        if let Some((tr, pass)) = unoccluded {
-                            let denom =
-                                (ratio * (Vec4::splat(p_light) + pdf_bsdf * pass)).element_sum();
-                            l += beta * tr * f_cos * le / denom;
-                        }
-                    }
-                }
-            }
-        }
-
-        // Continue the path with the hero's BSDF sample.
-        let uc = rng.next_f32();
-        let u2 = rng.next_2d();
-        let Some(bs) = material.sample(ng, wo, uc, u2) else {
-            break;
-        };
-        let p0 = bs.pdf.x;
-        if p0 <= 0.0 {
-            break;
-        }
-        let ratio_prev = ratio;
-        beta *= bs.f_cos / p0;
-        ratio *= bs.pdf / p0;
-        prev = if bs.specular {
-            None
-        } else {
-            Some(PrevVertex {
-                pdf_dir: bs.pdf,
-                ratio: ratio_prev,
-                p,
-                pass: Vec4::ONE,
-            })
-        };
-        if beta == Vec4::ZERO {
-            break;
-        }
-        // Crossing the surface (refraction) changes the medium.
-        if MEDIA && ng.dot(bs.wi) * ng.dot(wo) < 0.0 {
-            medium = medium_after_crossing(scene, hit.geom_id, ng, bs.wi);
-        }
-        if !russian_roulette(&mut beta, depth, rng) {
-            break;
-        }
-        let eps = spawn_eps(p);
-        ray = Ray::new(p + ng * eps * ng.dot(bs.wi).signum(), bs.wi);
+        p.add_to(&mut acc);
     }
-    l
+    acc
 }
 
 /// Russian roulette on the weighted throughput after the third bounce: `false` ends the

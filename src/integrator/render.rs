@@ -4,13 +4,15 @@
 //! pixel's samples are accumulated in order by one thread, so the image is the same
 //! whatever the number of threads.
 
-use super::{radiance, Dispersion, PathOptions, PathStats, Rays, Shifting, Spectral};
+use super::packet::{Grouping, Wavefront};
+use super::path::Path;
+use super::{Dispersion, PathOptions, PathStats, Rays, Shifting, Spectral};
 use crate::color;
 use crate::medium::tracking::Tracking;
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::spectrum::{self, SampledWavelengths};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -173,20 +175,48 @@ fn pixel_sample_checked(
     poison: bool,
     stats: &mut PathStats,
 ) -> Option<Vec3> {
-    let cam = &scene.camera;
+    let (p, lambda) = start_sample(scene, opts, path, x, y, sample, 0);
+    let l = if scene.has_media() {
+        super::trace_single::<true>(scene, path, p, stats)
+    } else {
+        super::trace_single::<false>(scene, path, p, stats)
+    };
+    finish_sample(lambda, l, poison, stats)
+}
+
+/// The camera path of one pixel sample and its wavelengths: a jittered ray through the
+/// pixel, the wavelengths, and the sample's two random streams.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn start_sample(
+    scene: &Scene,
+    opts: &RenderOptions,
+    path: &PathOptions,
+    x: u32,
+    y: u32,
+    sample: u32,
+    slot: u32,
+) -> (Path, Vec4) {
     let pixel = (y as u64) * opts.width as u64 + x as u64;
     let mut rng = Pcg32::for_sample(opts.seed, pixel, sample as u64);
     let [jx, jy] = rng.next_2d();
-    let ray = cam.ray(x as f32 + jx, y as f32 + jy);
+    let ray = scene.camera.ray(x as f32 + jx, y as f32 + jy);
     let u = rng.next_f32();
     let wl = match opts.spectral {
         Spectral::Hwss => SampledWavelengths::sample_hwss(u),
         Spectral::Mono => SampledWavelengths::sample_mono(u),
     };
     // The shift stream: a second, independent stream of the same pixel sample.
-    let mut shift_rng = LazyStream::new(opts.seed, pixel, sample as u64);
-    let l = radiance(scene, ray, wl.lambda, path, &mut rng, &mut shift_rng, stats);
-    let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(wl.lambda, l));
+    let shift_rng = LazyStream::new(opts.seed, pixel, sample as u64);
+    let p = Path::new(scene, ray, wl.lambda, path, rng, shift_rng, slot);
+    (p, wl.lambda)
+}
+
+/// A pixel sample's radiance `l` at the camera wavelengths `lambda` as linear sRGB, or
+/// `None` (counted) if it is NaN or infinite.
+#[inline]
+fn finish_sample(lambda: Vec4, l: Vec4, poison: bool, stats: &mut PathStats) -> Option<Vec3> {
+    let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(lambda, l));
     let rgb = if poison { Vec3::NAN } else { rgb };
     if rgb.is_finite() {
         Some(rgb)
@@ -240,11 +270,88 @@ fn render_pass_with(
     inject_nonfinite_every: Option<u64>,
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
+    let path = opts.path_options(scene);
+    let stats = match opts.rays {
+        Rays::Single => pass_single(
+            scene,
+            opts,
+            &path,
+            film,
+            first,
+            count,
+            inject_nonfinite_every,
+            on_row,
+        ),
+        Rays::Packet | Rays::Lockstep => {
+            let grouping = if opts.rays == Rays::Packet {
+                Grouping::Regroup
+            } else {
+                Grouping::Lockstep
+            };
+            if scene.has_media() {
+                pass_packet::<true>(
+                    scene,
+                    opts,
+                    &path,
+                    grouping,
+                    film,
+                    first,
+                    count,
+                    inject_nonfinite_every,
+                    on_row,
+                )
+            } else {
+                pass_packet::<false>(
+                    scene,
+                    opts,
+                    &path,
+                    grouping,
+                    film,
+                    first,
+                    count,
+                    inject_nonfinite_every,
+                    on_row,
+                )
+            }
+        }
+    };
+    film.spp += count;
+    stats
+}
+
+/// Adds `c` to a pixel's sums.
+#[inline]
+fn accumulate(sum: &mut [f64; 3], sq: &mut [f64; 3], c: Vec3) {
+    let c = [c.x as f64, c.y as f64, c.z as f64];
+    for k in 0..3 {
+        sum[k] += c[k];
+        sq[k] += c[k] * c[k];
+    }
+}
+
+/// Sums two threads' counters.
+fn add_stats(a: PathStats, b: PathStats) -> PathStats {
+    PathStats {
+        rays: a.rays + b.rays,
+        nonfinite: a.nonfinite + b.nonfinite,
+    }
+}
+
+/// A pass with single rays: rows in parallel, each pixel's samples depth first.
+#[allow(clippy::too_many_arguments)]
+fn pass_single(
+    scene: &Scene,
+    opts: &RenderOptions,
+    path: &PathOptions,
+    film: &mut Film,
+    first: u32,
+    count: u32,
+    inject_nonfinite_every: Option<u64>,
+    on_row: &(dyn Fn() + Sync),
+) -> PathStats {
     let w = opts.width as usize;
     let pixels = opts.width as u64 * opts.height as u64;
-    let path = opts.path_options(scene);
-    let stats: PathStats = film
-        .sum
+    film.sum
         .par_chunks_mut(w)
         .zip(film.sum_sq.par_chunks_mut(w))
         .enumerate()
@@ -255,25 +362,85 @@ fn render_pass_with(
                 for s in first..first + count {
                     let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
                     if let Some(c) = pixel_sample_checked(
-                        scene, opts, &path, x as u32, y as u32, s, poison, &mut st,
+                        scene, opts, path, x as u32, y as u32, s, poison, &mut st,
                     ) {
-                        let c = [c.x as f64, c.y as f64, c.z as f64];
-                        for k in 0..3 {
-                            sum[x][k] += c[k];
-                            sq[x][k] += c[k] * c[k];
-                        }
+                        accumulate(&mut sum[x], &mut sq[x], c);
                     }
                 }
             }
             on_row();
             st
         })
-        .reduce(PathStats::default, |a, b| PathStats {
-            rays: a.rays + b.rays,
-            nonfinite: a.nonfinite + b.nonfinite,
-        });
-    film.spp += count;
-    stats
+        .reduce(PathStats::default, add_stats)
+}
+
+/// A pass with packets: pairs of rows in parallel; for each sample index, the pixels of
+/// a row pair start as 2×2 quads in one [`Wavefront`]. A pixel's samples are still added
+/// in sample order, so the film does not depend on the thread count.
+#[allow(clippy::too_many_arguments)]
+fn pass_packet<const MEDIA: bool>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    path: &PathOptions,
+    grouping: Grouping,
+    film: &mut Film,
+    first: u32,
+    count: u32,
+    inject_nonfinite_every: Option<u64>,
+    on_row: &(dyn Fn() + Sync),
+) -> PathStats {
+    let w = opts.width as usize;
+    let pixels = opts.width as u64 * opts.height as u64;
+    film.sum
+        .par_chunks_mut(2 * w)
+        .zip(film.sum_sq.par_chunks_mut(2 * w))
+        .enumerate()
+        .map(|(pair, (sum, sq))| {
+            let mut st = PathStats::default();
+            let rows = sum.len() / w;
+            let y0 = 2 * pair;
+            let mut wave = Wavefront::default();
+            let mut results = vec![Vec4::ZERO; rows * w];
+            let mut lambdas = vec![Vec4::ZERO; rows * w];
+            for s in first..first + count {
+                wave.clear();
+                for qx in 0..w.div_ceil(2) {
+                    for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                        let (x, ly) = (2 * qx + dx, dy);
+                        if x >= w || ly >= rows {
+                            wave.push_empty();
+                            continue;
+                        }
+                        let slot = ly * w + x;
+                        let (p, lambda) = start_sample(
+                            scene,
+                            opts,
+                            path,
+                            x as u32,
+                            (y0 + ly) as u32,
+                            s,
+                            slot as u32,
+                        );
+                        lambdas[slot] = lambda;
+                        wave.push(p);
+                    }
+                }
+                results.fill(Vec4::ZERO);
+                wave.run::<MEDIA>(scene, path, grouping, &mut results, &mut st);
+                for slot in 0..rows * w {
+                    let pixel = (y0 * w + slot) as u64;
+                    let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
+                    if let Some(c) = finish_sample(lambdas[slot], results[slot], poison, &mut st) {
+                        accumulate(&mut sum[slot], &mut sq[slot], c);
+                    }
+                }
+            }
+            for _ in 0..rows {
+                on_row();
+            }
+            st
+        })
+        .reduce(PathStats::default, add_stats)
 }
 
 /// Renders `opts.spp` samples per pixel on a pool of `opts.threads` threads. The scene's

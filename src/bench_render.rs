@@ -1,0 +1,177 @@
+//! `stokes bench render`: path-tracing throughput (pixel samples per second) of the ray
+//! modes — packets of four paths against single rays — at several path depths and thread
+//! counts, measured in one run so that their ratios are taken under the same machine load.
+//!
+//! For every (threads, depth) the modes run in turn, `repetitions` times round-robin, each
+//! run a fixed number of samples per pixel sized from a first untimed warm-up run to take
+//! about `seconds / repetitions`; the median rate is reported. Scene loading and the BVH
+//! build are not timed.
+
+use crate::integrator::render::{render, RenderOptions};
+use crate::integrator::Rays;
+use crate::scene::Scene;
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// What and how long to measure.
+#[derive(Debug, Clone)]
+pub struct RenderBenchOptions {
+    /// The render settings besides rays, depth, threads and spp (resolution, method).
+    pub base: RenderOptions,
+    /// The ray modes to compare.
+    pub rays: Vec<Rays>,
+    /// Path depths (−1 = unbounded).
+    pub depths: Vec<i32>,
+    /// Thread counts (0 = one per core).
+    pub threads: Vec<usize>,
+    /// Target seconds per figure, split over the repetitions.
+    pub seconds: f64,
+    /// Runs per figure; the median is reported.
+    pub repetitions: usize,
+}
+
+/// One measured figure.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderBenchResult {
+    /// `single`, `packet` or `lockstep`.
+    pub rays: &'static str,
+    /// Path depth (−1 = unbounded).
+    pub max_depth: i32,
+    /// Worker threads.
+    pub threads: usize,
+    /// Median pixel samples per second.
+    pub samples_per_second: f64,
+    /// Samples per pixel of each timed run.
+    pub spp: u32,
+    /// Rays per pixel sample (camera, bounce and shadow rays).
+    pub rays_per_sample: f64,
+}
+
+/// The figures of one scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderBenchReport {
+    /// Scene name.
+    pub scene: String,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Every figure.
+    pub results: Vec<RenderBenchResult>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Runs the benchmark; `progress` hears about each figure as it is measured.
+pub fn bench_render(
+    scene: &Scene,
+    opts: &RenderBenchOptions,
+    progress: &mut dyn FnMut(&RenderBenchResult),
+) -> Result<RenderBenchReport, String> {
+    let reps = opts.repetitions.max(1);
+    let mut results = Vec::new();
+    for &threads in &opts.threads {
+        let threads_used = if threads == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            threads
+        };
+        for &depth in &opts.depths {
+            let run = |rays: Rays, spp: u32| -> Result<(f64, f64), String> {
+                let o = RenderOptions {
+                    spp,
+                    max_depth: depth,
+                    threads,
+                    rays,
+                    ..opts.base.clone()
+                };
+                let r = render(scene, &o, &|| {})?;
+                let samples = o.width as f64 * o.height as f64 * spp as f64;
+                Ok((samples / r.seconds, r.stats.rays as f64 / samples))
+            };
+            // Size the runs from a 1-spp warm-up of the first mode.
+            let (rate, _) = run(opts.rays[0], 1)?;
+            let pixels = opts.base.width as f64 * opts.base.height as f64;
+            let spp = ((rate * opts.seconds / reps as f64) / pixels)
+                .round()
+                .max(1.0) as u32;
+            let mut rates = vec![Vec::new(); opts.rays.len()];
+            let mut rays_per_sample = vec![0.0; opts.rays.len()];
+            for _ in 0..reps {
+                for (m, &rays) in opts.rays.iter().enumerate() {
+                    let (r, rps) = run(rays, spp)?;
+                    rates[m].push(r);
+                    rays_per_sample[m] = rps;
+                }
+            }
+            for (m, &rays) in opts.rays.iter().enumerate() {
+                let res = RenderBenchResult {
+                    rays: rays.name(),
+                    max_depth: depth,
+                    threads: threads_used,
+                    samples_per_second: median(std::mem::take(&mut rates[m])),
+                    spp,
+                    rays_per_sample: rays_per_sample[m],
+                };
+                progress(&res);
+                results.push(res);
+            }
+        }
+    }
+    Ok(RenderBenchReport {
+        scene: scene.name(),
+        width: opts.base.width,
+        height: opts.base.height,
+        results,
+    })
+}
+
+/// A table of the figures with each mode's rate relative to single rays.
+pub fn format_table(report: &RenderBenchReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{}: {}x{}, M samples/s (median of the runs)",
+        report.scene, report.width, report.height
+    );
+    let _ = writeln!(
+        s,
+        "{:>7} {:>9} {:>9} {:>10} {:>10} {:>12}",
+        "threads", "max depth", "rays", "M samples/s", "rays/sample", "vs single"
+    );
+    for r in &report.results {
+        let single = report
+            .results
+            .iter()
+            .find(|q| q.rays == "single" && q.max_depth == r.max_depth && q.threads == r.threads)
+            .map(|q| q.samples_per_second);
+        let ratio = single.map_or_else(
+            || "-".to_string(),
+            |b| format!("{:.2}x", r.samples_per_second / b),
+        );
+        let depth = if r.max_depth < 0 {
+            "inf".to_string()
+        } else {
+            r.max_depth.to_string()
+        };
+        let _ = writeln!(
+            s,
+            "{:>7} {:>9} {:>9} {:>10.3} {:>10.2} {:>12}",
+            r.threads,
+            depth,
+            r.rays,
+            r.samples_per_second / 1e6,
+            r.rays_per_sample,
+            ratio
+        );
+    }
+    s
+}
