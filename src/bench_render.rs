@@ -45,6 +45,9 @@ pub struct RenderBenchResult {
     pub spp: u32,
     /// Rays per pixel sample (camera, bounce and shadow rays).
     pub rays_per_sample: f64,
+    /// Packet modes: the share of packet lanes that carried a ray.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub occupancy: Option<f64>,
 }
 
 /// The figures of one scene.
@@ -85,7 +88,7 @@ pub fn bench_render(
             threads
         };
         for &depth in &opts.depths {
-            let run = |rays: Rays, spp: u32| -> Result<(f64, f64), String> {
+            let run = |rays: Rays, spp: u32| -> Result<(f64, f64, Option<f64>), String> {
                 let o = RenderOptions {
                     spp,
                     max_depth: depth,
@@ -95,21 +98,27 @@ pub fn bench_render(
                 };
                 let r = render(scene, &o, &|| {})?;
                 let samples = o.width as f64 * o.height as f64 * spp as f64;
-                Ok((samples / r.seconds, r.stats.rays as f64 / samples))
+                Ok((
+                    samples / r.seconds,
+                    r.stats.rays as f64 / samples,
+                    r.stats.occupancy(),
+                ))
             };
             // Size the runs from a 1-spp warm-up of the first mode.
-            let (rate, _) = run(opts.rays[0], 1)?;
+            let (rate, _, _) = run(opts.rays[0], 1)?;
             let pixels = opts.base.width as f64 * opts.base.height as f64;
             let spp = ((rate * opts.seconds / reps as f64) / pixels)
                 .round()
                 .max(1.0) as u32;
             let mut rates = vec![Vec::new(); opts.rays.len()];
             let mut rays_per_sample = vec![0.0; opts.rays.len()];
+            let mut occupancy = vec![None; opts.rays.len()];
             for _ in 0..reps {
                 for (m, &rays) in opts.rays.iter().enumerate() {
-                    let (r, rps) = run(rays, spp)?;
+                    let (r, rps, occ) = run(rays, spp)?;
                     rates[m].push(r);
                     rays_per_sample[m] = rps;
+                    occupancy[m] = occ;
                 }
             }
             for (m, &rays) in opts.rays.iter().enumerate() {
@@ -120,6 +129,7 @@ pub fn bench_render(
                     samples_per_second: median(std::mem::take(&mut rates[m])),
                     spp,
                     rays_per_sample: rays_per_sample[m],
+                    occupancy: occupancy[m],
                 };
                 progress(&res);
                 results.push(res);
@@ -144,8 +154,8 @@ pub fn format_table(report: &RenderBenchReport) -> String {
     );
     let _ = writeln!(
         s,
-        "{:>7} {:>9} {:>9} {:>10} {:>10} {:>12}",
-        "threads", "max depth", "rays", "M samples/s", "rays/sample", "vs single"
+        "{:>7} {:>9} {:>9} {:>11} {:>11} {:>9} {:>9}",
+        "threads", "max depth", "rays", "M samples/s", "rays/sample", "lanes", "vs single"
     );
     for r in &report.results {
         let single = report
@@ -162,14 +172,18 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         } else {
             r.max_depth.to_string()
         };
+        let lanes = r
+            .occupancy
+            .map_or_else(|| "-".to_string(), |o| format!("{:.0}%", 100.0 * o));
         let _ = writeln!(
             s,
-            "{:>7} {:>9} {:>9} {:>10.3} {:>10.2} {:>12}",
+            "{:>7} {:>9} {:>9} {:>11.3} {:>11.2} {:>9} {:>9}",
             r.threads,
             depth,
             r.rays,
             r.samples_per_second / 1e6,
             r.rays_per_sample,
+            lanes,
             ratio
         );
     }

@@ -123,6 +123,25 @@ pub struct PathStats {
     pub rays: u64,
     /// Samples that came out NaN or infinite and were dropped.
     pub nonfinite: u64,
+    /// Packet mode: lanes of the 4-wide queries that carried a ray.
+    pub lanes_used: u64,
+    /// Packet mode: lanes of all 4-wide queries (4 per query).
+    pub lanes_total: u64,
+}
+
+impl PathStats {
+    /// Adds another thread's or pass's counters.
+    pub fn add(&mut self, o: &PathStats) {
+        self.rays += o.rays;
+        self.nonfinite += o.nonfinite;
+        self.lanes_used += o.lanes_used;
+        self.lanes_total += o.lanes_total;
+    }
+
+    /// The share of packet lanes that carried a ray (`None` without packets).
+    pub fn occupancy(&self) -> Option<f64> {
+        (self.lanes_total > 0).then(|| self.lanes_used as f64 / self.lanes_total as f64)
+    }
 }
 
 /// Offset for spawning rays off a surface, relative to the scene's scale.

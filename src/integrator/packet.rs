@@ -16,6 +16,10 @@ use crate::accel::{Coherence, Hit, RayHit4};
 use crate::scene::Scene;
 use glam::Vec4;
 
+/// Whether the shadow rays of the first bounce (from a quad's camera hits) are traced
+/// with the coherent flag.
+const COHERENT_FIRST_SHADOWS: bool = false;
+
 /// An empty lane of a packet.
 const NONE: u32 = u32::MAX;
 
@@ -76,11 +80,20 @@ impl Wavefront {
         results: &mut [Vec4],
         stats: &mut PathStats,
     ) {
-        while self.active.len() % 4 != 0 {
+        while !self.active.len().is_multiple_of(4) {
             self.active.push(NONE);
         }
         let accel = &scene.accel;
+        let mut bounce = 0u32;
         while !self.active.is_empty() {
+            // Shadow rays from the camera hits of a quad start close together and end on
+            // the same light: coherent. After that, paths have scattered.
+            let shadow_coherence = if bounce == 0 && COHERENT_FIRST_SHADOWS {
+                Coherence::Coherent
+            } else {
+                Coherence::Incoherent
+            };
+            bounce += 1;
             // Trace this bounce's rays, four per query.
             self.hits.clear();
             self.hits.resize(self.active.len(), None);
@@ -103,8 +116,8 @@ impl Wavefront {
                 };
                 accel.intersect4(&mut packet, mask, coherence);
                 self.lanes_total += 4;
-                for k in 0..4 {
-                    if mask[k] {
+                for (k, &live) in mask.iter().enumerate() {
+                    if live {
                         self.hits[c * 4 + k] = packet.hit(k);
                         self.lanes_used += 1;
                     }
@@ -153,7 +166,7 @@ impl Wavefront {
                     packet.set_ray(k, &s.ray);
                     mask[k] = true;
                 }
-                accel.occluded4(&mut packet, mask, Coherence::Incoherent);
+                accel.occluded4(&mut packet, mask, shadow_coherence);
                 self.lanes_total += 4;
                 self.lanes_used += group.len() as u64;
                 for (k, (i, s)) in group.iter().enumerate() {
@@ -178,7 +191,7 @@ impl Wavefront {
                     self.active.push(self.paths.len() as u32);
                     self.paths.push(child.clone());
                 }
-                while self.active.len() % 4 != 0 {
+                while !self.active.len().is_multiple_of(4) {
                     self.active.push(NONE);
                 }
             }
@@ -188,7 +201,7 @@ impl Wavefront {
                 Grouping::Regroup => {
                     self.active
                         .extend(self.next.iter().copied().filter(|&i| i != NONE));
-                    while self.active.len() % 4 != 0 {
+                    while !self.active.len().is_multiple_of(4) {
                         self.active.push(NONE);
                     }
                 }

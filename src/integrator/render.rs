@@ -330,11 +330,9 @@ fn accumulate(sum: &mut [f64; 3], sq: &mut [f64; 3], c: Vec3) {
 }
 
 /// Sums two threads' counters.
-fn add_stats(a: PathStats, b: PathStats) -> PathStats {
-    PathStats {
-        rays: a.rays + b.rays,
-        nonfinite: a.nonfinite + b.nonfinite,
-    }
+fn add_stats(mut a: PathStats, b: PathStats) -> PathStats {
+    a.add(&b);
+    a
 }
 
 /// A pass with single rays: rows in parallel, each pixel's samples depth first.
@@ -427,6 +425,8 @@ fn pass_packet<const MEDIA: bool>(
                 }
                 results.fill(Vec4::ZERO);
                 wave.run::<MEDIA>(scene, path, grouping, &mut results, &mut st);
+                st.lanes_used += std::mem::take(&mut wave.lanes_used);
+                st.lanes_total += std::mem::take(&mut wave.lanes_total);
                 for slot in 0..rows * w {
                     let pixel = (y0 * w + slot) as u64;
                     let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
@@ -602,8 +602,7 @@ pub fn render_progressive(
                 on_row,
             )
         });
-        stats.rays += st.rays;
-        stats.nonfinite += st.nonfinite;
+        stats.add(&st);
         passes += 1;
         on_pass(PassDone {
             passes,
