@@ -6,11 +6,13 @@ scenes. The "region" columns are the RMSE over the scene's region of interest (R
 the row of fluorescent patches, the dye block, the slab).
 --set tracking: mono (fluo-aware), and HWSS with classic, maximum and fluorescence-aware
 tracking, e.g. on fluorescent-slab and fluorescent-volume-440nm.
+--set dispersion: lane dropping and wavelength-split paths at dispersive refractions, on
+scenes/prism.toml.
 The reference is the last method of the set at --ref-spp. Prints a Markdown table and writes
 docs/results/<scene>-16spp.png (the methods left to right, in the order above).
 
 Run from the repository root after `cargo build --release`:
-    python3 benches/fluorescence_rmse.py [--set surfaces|tracking] [--res 256] [--ref-spp 2048] [--scenes a.toml ...]
+    python3 benches/fluorescence_rmse.py [--set surfaces|tracking|dispersion] [--res 256] [--ref-spp 2048] [--scenes a.toml ...]
 Uses the stokes binary and OpenImageIO's oiiotool.
 """
 import argparse, json, math, os, subprocess, sys, tempfile
@@ -19,6 +21,8 @@ STOKES = "target/release/stokes"
 SURFACE_METHODS = [("mono", ["--spectral", "mono"]),
                    ("hwss-constant", ["--spectral", "hwss", "--shifting", "constant"]),
                    ("hwss-independent", ["--spectral", "hwss", "--shifting", "independent"])]
+DISPERSION_METHODS = [("drop", ["--dispersion", "drop"]),
+                      ("split", ["--dispersion", "split"])]
 TRACKING_METHODS = [("mono fluo-aware", ["--spectral", "mono", "--tracking", "fluo-aware"]),
                     ("hwss classic", ["--spectral", "hwss", "--tracking", "classic"]),
                     ("hwss max", ["--spectral", "hwss", "--tracking", "max"]),
@@ -75,13 +79,15 @@ def main():
     ap.add_argument("--scenes", nargs="+",
                     default=["scenes/fluorescent-surfaces.toml", "scenes/fluorescent-surfaces-440nm.toml"])
     ap.add_argument("--png-dir", default="docs/results")
-    ap.add_argument("--set", choices=["surfaces", "tracking"], default="surfaces",
-                    help="surfaces: mono/constant/independent; tracking: classic/max/fluo-aware (+ mono)")
+    ap.add_argument("--set", choices=["surfaces", "tracking", "dispersion"], default="surfaces",
+                    help="surfaces: mono/constant/independent; tracking: classic/max/fluo-aware (+ mono); "
+                         "dispersion: drop/split")
     a = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="stokes-rmse-")
     print(f"| scene | method | M samples/s | RMSE @ {a.spp} spp: image | region | spp at equal time | RMSE @ equal time: image | region |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    methods = SURFACE_METHODS if a.set == "surfaces" else TRACKING_METHODS
+    methods = {"surfaces": SURFACE_METHODS, "tracking": TRACKING_METHODS,
+               "dispersion": DISPERSION_METHODS}[a.set]
     base = methods[-1][0]
 
     for scene in a.scenes:
