@@ -36,6 +36,16 @@ enum Command {
     /// Merge renders of the same scene with disjoint sample ranges (e.g. the parts of a
     /// cluster job array): the spp-weighted mean.
     Merge(MergeArgs),
+    /// Render a high-spp reference and its variance (<out>.variance.exr); --resume adds
+    /// samples to an existing one.
+    Reference(ReferenceArgs),
+    /// Compare methods against a reference: error against time and spp at log-spaced
+    /// checkpoints, as CSV, charts and a summary table.
+    #[command(
+        after_help = "Method names such as hwss-independent-fluo-aware-packet-drop, the default method list, the error measures and the outputs: see --help.",
+        after_long_help = CONVERGE_HELP
+    )]
+    Converge(ConvergeArgs),
     /// Benchmarks.
     Bench {
         #[command(subcommand)]
@@ -266,8 +276,16 @@ fn parse_res(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
+        Command::Reference(a) => cmd_reference(&a),
+        Command::Converge(a) => {
+            cmd_converge(&a, matches.subcommand_matches("converge")).map(|()| ExitCode::SUCCESS)
+        }
         Command::Render(a) => cmd_render(&a),
         Command::Info { scene } => cmd_info(&scene).map(|()| ExitCode::SUCCESS),
         Command::Merge(a) => cmd_merge(&a).map(|()| ExitCode::SUCCESS),
@@ -450,32 +468,20 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
     let film = &result.film;
     let spp = film.spp;
 
-    let tracking = opts.path_options(&scene).tracking;
     let range = stokes::merge::SampleRange {
         seed: opts.seed,
         start: a.seed_offset as u64,
         end: a.seed_offset as u64 + spp as u64,
     };
-    let mut meta = vec![
-        ("scene".to_string(), a.scene.display().to_string()),
-        ("scene_hash".to_string(), scene_hash),
-        ("spp".to_string(), spp.to_string()),
-        ("seed".to_string(), opts.seed.to_string()),
-        ("seed_offset".to_string(), a.seed_offset.to_string()),
-        ("sample_ranges".to_string(), range.to_string()),
-        ("spectral".to_string(), opts.spectral.name().to_string()),
-        ("shifting".to_string(), opts.shifting.name().to_string()),
-        ("tracking".to_string(), tracking.name().to_string()),
-        ("max_depth".to_string(), opts.max_depth.to_string()),
-        ("rays".to_string(), opts.rays.name().to_string()),
-        ("dispersion".to_string(), opts.dispersion.name().to_string()),
-        (
-            "render_seconds".to_string(),
-            format!("{:.3}", result.seconds),
-        ),
-        ("stopped".to_string(), done.stopped.name().to_string()),
-        ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-    ];
+    let mut meta = render_meta(
+        &scene,
+        &a.scene,
+        &scene_hash,
+        &opts,
+        &[range],
+        result.seconds,
+        done.stopped,
+    );
     if let Some(t) = a.time {
         meta.push(("time_budget".to_string(), t.to_string()));
     }
@@ -614,7 +620,7 @@ fn cmd_info(path: &Path) -> Result<(), String> {
     println!(
         "spectral    hwss (4 wavelengths per path){}",
         if dispersion {
-            "; a dispersive dielectric drops the 3 secondary lanes at each refraction"
+            "; a dispersive dielectric splits the 4 wavelengths: --dispersion drop keeps the hero only, --dispersion split continues all four as single-wavelength paths"
         } else {
             ""
         }
@@ -738,5 +744,619 @@ fn cmd_bench_rays(a: &BenchRaysArgs) -> Result<(), String> {
     } else {
         print!("{}", stokes::bench_rays::format_table(&report));
     }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// `stokes reference` and `stokes converge`
+
+/// The `stokes:*` header of a render of `scene` (the file `scene_path`, fingerprint
+/// `scene_hash`) with `opts`, holding the samples `ranges`.
+fn render_meta(
+    scene: &Scene,
+    scene_path: &Path,
+    scene_hash: &str,
+    opts: &RenderOptions,
+    ranges: &[stokes::merge::SampleRange],
+    seconds: f64,
+    stopped: Stopped,
+) -> Vec<(String, String)> {
+    let spp: u64 = ranges.iter().map(|r| r.len()).sum();
+    let tracking = opts.path_options(scene).tracking;
+    let mut meta = vec![
+        ("scene".to_string(), scene_path.display().to_string()),
+        ("scene_hash".to_string(), scene_hash.to_string()),
+        ("spp".to_string(), spp.to_string()),
+    ];
+    if let Some(first) = ranges.first() {
+        if ranges.iter().all(|r| r.seed == first.seed) {
+            meta.push(("seed".to_string(), first.seed.to_string()));
+        }
+        if ranges.len() == 1 {
+            meta.push(("seed_offset".to_string(), first.start.to_string()));
+        }
+    }
+    meta.extend([
+        (
+            "sample_ranges".to_string(),
+            stokes::merge::format_ranges(ranges),
+        ),
+        ("spectral".to_string(), opts.spectral.name().to_string()),
+        ("shifting".to_string(), opts.shifting.name().to_string()),
+        ("tracking".to_string(), tracking.name().to_string()),
+        ("max_depth".to_string(), opts.max_depth.to_string()),
+        ("rays".to_string(), opts.rays.name().to_string()),
+        ("dispersion".to_string(), opts.dispersion.name().to_string()),
+        ("render_seconds".to_string(), format!("{seconds:.3}")),
+        ("stopped".to_string(), stopped.name().to_string()),
+        ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+    ]);
+    meta
+}
+
+#[derive(Args, Clone)]
+struct ReferenceArgs {
+    /// The scene file (TOML).
+    scene: PathBuf,
+    /// Samples per pixel to render (with --resume: to add to the existing ones).
+    #[arg(long)]
+    spp: u32,
+    /// The reference EXR; the variance of each pixel mean goes beside it, to
+    /// <output>.variance.exr.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// If the output exists, add --spp samples to it (the sample indices after the ones
+    /// it holds), once its header shows the same scene file, size and settings; without
+    /// an existing output, start one. Without --resume an existing output is an error.
+    #[arg(long)]
+    resume: bool,
+    #[command(flatten)]
+    method: MethodArgs,
+}
+
+/// The reference to resume: its means, its variance, and the checks that it belongs with
+/// this run.
+fn read_resumed(
+    out: &Path,
+    var_path: &Path,
+    scene_hash: &str,
+    settings: &[(&str, String)],
+    size: (u32, u32),
+) -> Result<(stokes::merge::Part, stokes::merge::Part), String> {
+    use stokes::merge::Part;
+    let o = out.display();
+    let prev = Part::read(out).map_err(|e| format!("--resume: {e}"))?;
+    if (prev.width, prev.height) != size {
+        return Err(format!(
+            "--resume: {o} is {}x{} but this run renders {}x{}: resume at the reference's size (--res {}x{})",
+            prev.width, prev.height, size.0, size.1, prev.width, prev.height
+        ));
+    }
+    if prev.meta["scene_hash"] != scene_hash {
+        return Err(format!(
+            "--resume: {o} is a reference of {} ({}), but this scene file's hash is {scene_hash}: the scene changed or is another one (remove {o} to start again)",
+            prev.meta.get("scene").map(String::as_str).unwrap_or("?"),
+            prev.meta["scene_hash"]
+        ));
+    }
+    for (k, v) in settings {
+        if &prev.meta[*k] != v {
+            return Err(format!(
+                "--resume: {o} was rendered with {k} = {} but this run has {k} = {v}: resume with the same settings",
+                prev.meta[*k]
+            ));
+        }
+    }
+    if !var_path.exists() {
+        return Err(format!(
+            "--resume: {} is missing: a reference keeps its variance beside it (remove {o} to start again)",
+            var_path.display()
+        ));
+    }
+    let var = Part::read(var_path).map_err(|e| format!("--resume: {e}"))?;
+    if (var.width, var.height) != (prev.width, prev.height)
+        || var.spp != prev.spp
+        || var.ranges != prev.ranges
+        || var.meta["scene_hash"] != prev.meta["scene_hash"]
+    {
+        return Err(format!(
+            "--resume: {} does not belong to {o} (size, spp, samples or scene differ)",
+            var_path.display()
+        ));
+    }
+    Ok((prev, var))
+}
+
+fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode, String> {
+    use stokes::merge::{self, Part, SampleRange};
+    let (mut scene, scene_hash) = load_with_hash(&a.scene)?;
+    if a.spp == 0 {
+        return Err("--spp: expected at least 1".into());
+    }
+    let opts = a.method.options(&mut scene, &a.scene, a.spp)?;
+    let (width, height) = (opts.width, opts.height);
+    let out = &a.output;
+    let var_path = merge::variance_path(out);
+    let tracking = opts.path_options(&scene).tracking;
+    let settings: Vec<(&str, String)> = merge::SETTINGS
+        .iter()
+        .map(|&k| {
+            let v = match k {
+                "spectral" => opts.spectral.name().to_string(),
+                "shifting" => opts.shifting.name().to_string(),
+                "tracking" => tracking.name().to_string(),
+                "max_depth" => opts.max_depth.to_string(),
+                _ => opts.dispersion.name().to_string(),
+            };
+            (k, v)
+        })
+        .collect();
+    let previous = if out.exists() {
+        if !a.resume {
+            return Err(format!(
+                "{}: the reference exists: pass --resume to add {} samples to it, or remove it (and {}) to start again",
+                out.display(),
+                a.spp,
+                var_path.display()
+            ));
+        }
+        Some(read_resumed(
+            out,
+            &var_path,
+            &scene_hash,
+            &settings,
+            (width, height),
+        )?)
+    } else {
+        None
+    };
+    // New samples follow the ones of the same seed the reference holds.
+    let start: u64 = previous
+        .as_ref()
+        .and_then(|(p, _)| {
+            p.ranges
+                .iter()
+                .filter(|r| r.seed == opts.seed)
+                .map(|r| r.end)
+                .max()
+        })
+        .unwrap_or(0);
+    let first_sample = u32::try_from(start)
+        .ok()
+        .filter(|s| s.checked_add(a.spp).is_some())
+        .ok_or_else(|| {
+            format!(
+                "--spp: samples {start}..{start} + {} exceed the 32-bit sample index",
+                a.spp
+            )
+        })?;
+
+    install_interrupt_handler(None);
+    let mut last_log = Instant::now();
+    let mut on_pass = |p: PassDone| {
+        if p.passes == 1 || last_log.elapsed().as_secs_f64() >= 60.0 {
+            last_log = Instant::now();
+            eprintln!(
+                "pass {} done after {:.2} s: {} of {} spp, about {:.0} s to go",
+                p.passes,
+                p.seconds,
+                p.spp,
+                a.spp,
+                p.seconds / p.spp as f64 * (a.spp - p.spp) as f64
+            );
+        }
+    };
+    let prog = Progressive {
+        first_sample,
+        max_spp: Some(a.spp),
+        batch: 1,
+        stop: Some(&STOP),
+        ..Default::default()
+    };
+    let done = render_progressive(&scene, &opts, &prog, &|| {}, &mut on_pass)?;
+    let result = &done.render;
+    let film = &result.film;
+    let range = SampleRange {
+        seed: opts.seed,
+        start,
+        end: start + film.spp as u64,
+    };
+    let mut nonfinite = result.stats.nonfinite;
+    let (mean, var, ranges, seconds) = match previous {
+        None => (
+            film.mean(),
+            film.variance_of_mean(),
+            vec![range],
+            result.seconds,
+        ),
+        Some((prev, prev_var)) => {
+            let new = Part {
+                path: out.clone(),
+                width,
+                height,
+                pixels: film.mean(),
+                meta: prev.meta.clone(),
+                spp: film.spp as u64,
+                ranges: vec![range],
+            };
+            let prev_seconds: f64 = prev
+                .meta
+                .get("render_seconds")
+                .and_then(|t| t.parse().ok())
+                .unwrap_or(0.0);
+            nonfinite += prev
+                .meta
+                .get("nonfinite_samples")
+                .and_then(|t| t.parse::<u64>().ok())
+                .unwrap_or(0);
+            let mut ranges = prev.ranges.clone();
+            ranges.push(range);
+            let parts = [prev, new];
+            let mean = merge::weighted_mean(&parts);
+            let var =
+                merge::pooled_variance(&parts, &[prev_var.pixels, film.variance_of_mean()], &mean);
+            (
+                mean,
+                var,
+                merge::normalise(ranges),
+                prev_seconds + result.seconds,
+            )
+        }
+    };
+    let mut meta = render_meta(
+        &scene,
+        &a.scene,
+        &scene_hash,
+        &opts,
+        &ranges,
+        seconds,
+        done.stopped,
+    );
+    if nonfinite > 0 {
+        meta.push(("nonfinite_samples".to_string(), nonfinite.to_string()));
+    }
+    if result.stats.nonfinite > 0 {
+        eprintln!(
+            "warning: {} samples were NaN or infinite and were dropped",
+            result.stats.nonfinite
+        );
+    }
+    // The variance first: the reference itself is written last, so that an interrupted
+    // pair of writes leaves a variance that does not match it (caught by --resume)
+    // rather than a reference with a stale variance.
+    stokes::output::write_exr(&var_path, width, height, &var, &meta)?;
+    stokes::output::write_exr(out, width, height, &mean, &meta)?;
+    let total: u64 = ranges.iter().map(|r| r.len()).sum();
+    eprintln!(
+        "{}: reference {width}x{height}, {total} spp (samples {}): added {} spp in {:.2} s → {}, {}",
+        scene.name(),
+        merge::format_ranges(&ranges),
+        film.spp,
+        result.seconds,
+        out.display(),
+        var_path.display()
+    );
+    if done.stopped == Stopped::Interrupted {
+        eprintln!(
+            "error: interrupted after {} passes: {} holds {total} spp; add the {} missing with --resume --spp {}",
+            done.passes,
+            out.display(),
+            a.spp - film.spp,
+            a.spp - film.spp
+        );
+        return Ok(ExitCode::from(130));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The long help of `stokes converge`: method names, the default list and the outputs.
+const CONVERGE_HELP: &str = "\
+Methods: a method is one value on each of five axes, joined by `-` in this order:
+  spectral     hwss | mono
+  shifting     independent | constant
+  tracking     classic | max | fluo-aware
+  rays         single | packet
+  dispersion   drop | split
+for example hwss-independent-fluo-aware-packet-drop (the name the outputs use). In
+--methods a name may list the values in any order and leave axes out: those take the
+method flags' values (--spectral, --shifting, --tracking, --rays, --dispersion), else the
+defaults hwss, independent, the scene's default tracking, single, drop. Example:
+  --methods hwss-packet,mono-packet,hwss-constant-max
+
+Without --methods: every combination the scene makes meaningful. Spectral and rays
+always vary; shifting only where something fluoresces, tracking only where there are
+media, dispersion only where a dielectric is dispersive; mono takes one shifting and one
+dispersion value (they act on the secondary wavelengths). A method flag given on the
+command line fixes its axis (--spectral mono: only mono methods).
+
+Each method renders passes of 1 spp on samples after the reference's, until --budget
+seconds of rendering (or --spp). At spp 1, 2, 4, 8, ... and at the final spp it records
+the seconds of rendering so far (error computation not counted) and the error against
+the reference over the image and over each [[region]] of the scene:
+  rmse   = sqrt(mean over pixels and channels of (x - r)^2)
+  relmse = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01)
+
+Outputs in --out DIR:
+  convergence.csv   method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,
+                    region,rmse,relmse (one row per checkpoint and region; region `image`
+                    is the whole image)
+  error-vs-time.svg/.png, error-vs-spp.svg/.png: log-log RMSE over the first region
+                    (else the image), one line per method, a dashed line of slope -1/2
+and on stdout a table: per method, the fitted log-log slope of RMSE against spp (over
+checkpoints with spp >= 4; -0.5 for an unbiased method), the final errors and the
+seconds to reach the worst final relMSE of all methods.";
+
+#[derive(Args, Clone)]
+struct ConvergeArgs {
+    /// The scene file (TOML).
+    scene: PathBuf,
+    /// The reference EXR (from `stokes reference`) of the same scene file, at the size of
+    /// this run.
+    #[arg(long)]
+    reference: PathBuf,
+    /// Methods to compare, comma-separated (names below; default: every combination the
+    /// scene makes meaningful).
+    #[arg(long)]
+    methods: Option<String>,
+    /// Seconds of rendering per method (error computation not counted).
+    #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true, default_value_t = 10.0)]
+    budget: f64,
+    /// At most this many samples per pixel per method.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Output directory (default: out/converge/<scene name>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    method: MethodArgs,
+}
+
+fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<(), String> {
+    use stokes::converge::{self, Budget, Method, MethodSpace};
+    let (mut scene, scene_hash) = load_with_hash(&a.scene)?;
+    if a.spp == Some(0) {
+        return Err("--spp: expected at least 1".into());
+    }
+    let base = a.method.options(&mut scene, &a.scene, 1)?;
+    let (width, height) = (base.width, base.height);
+
+    // The reference: same scene file, size and depth.
+    let r = a.reference.display();
+    if !a.reference.exists() {
+        return Err(format!(
+            "--reference {r}: no such file (make one with `stokes reference {} --spp N -o {r}`)",
+            a.scene.display()
+        ));
+    }
+    let reference = stokes::merge::Part::read(&a.reference)?;
+    if (reference.width, reference.height) != (width, height) {
+        return Err(format!(
+            "--reference {r} is {}x{} but this run renders {width}x{height} (--res or the scene's camera.resolution): give a reference of the same size",
+            reference.width, reference.height
+        ));
+    }
+    if reference.meta["scene_hash"] != scene_hash {
+        return Err(format!(
+            "--reference {r} is a reference of {} ({}), not of {} ({scene_hash})",
+            reference
+                .meta
+                .get("scene")
+                .map(String::as_str)
+                .unwrap_or("?"),
+            reference.meta["scene_hash"],
+            a.scene.display()
+        ));
+    }
+    if reference.meta["max_depth"] != base.max_depth.to_string() {
+        return Err(format!(
+            "--reference {r} was rendered with max_depth = {} but this run uses {}: the images converge to different values (give --max-depth {})",
+            reference.meta["max_depth"], base.max_depth, reference.meta["max_depth"]
+        ));
+    }
+    if reference.meta["tracking"] == "classic" && scene.has_fluorescent_media() {
+        eprintln!("warning: {r} was rendered with classic tracking, which is biased in fluorescent media: errors are measured against a biased reference");
+    }
+
+    // The methods.
+    let defaults = Method {
+        spectral: a.method.spectral,
+        shifting: a.method.shifting,
+        tracking: a
+            .method
+            .tracking
+            .unwrap_or_else(|| scene.default_tracking().0),
+        rays: a.method.rays,
+        dispersion: a.method.dispersion,
+    };
+    let methods = match &a.methods {
+        Some(list) => Method::parse_list(list, &defaults).map_err(|e| format!("--methods: {e}"))?,
+        None => {
+            let given = |id: &str| {
+                matches.and_then(|m| m.value_source(id))
+                    == Some(clap::parser::ValueSource::CommandLine)
+            };
+            let mut space = MethodSpace::for_scene(&scene, &defaults);
+            if given("spectral") {
+                space.spectral = vec![defaults.spectral];
+            }
+            if given("shifting") {
+                space.shifting = vec![defaults.shifting];
+            }
+            if given("tracking") {
+                space.tracking = vec![defaults.tracking];
+            }
+            if given("rays") {
+                space.rays = vec![defaults.rays];
+            }
+            if given("dispersion") {
+                space.dispersion = vec![defaults.dispersion];
+            }
+            space.methods()
+        }
+    };
+
+    // Samples after the reference's, so that no method reuses the reference's samples.
+    let first_sample = reference
+        .ranges
+        .iter()
+        .filter(|r| r.seed == base.seed)
+        .map(|r| r.end)
+        .max()
+        .unwrap_or(0);
+    let first_sample = u32::try_from(first_sample)
+        .ok()
+        .filter(|&s| s < u32::MAX / 2)
+        .ok_or_else(|| {
+            format!("--reference {r} holds samples up to {first_sample} of seed {}: too many to draw new ones after them (give another --seed)", base.seed)
+        })?;
+    let budget = Budget {
+        seconds: a.budget,
+        max_spp: a.spp,
+        first_sample,
+    };
+    let regions = converge::measured_regions(&scene, width, height);
+    let chart_region = if regions.len() > 1 { 1 } else { 0 };
+    let region_name = &regions[chart_region].name;
+    let out_dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out/converge").join(scene.name()));
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("--out {}: cannot create directory: {e}", out_dir.display()))?;
+    let pool = stokes::accel::thread_pool(base.threads)
+        .map_err(|e| format!("cannot start threads: {e}"))?;
+
+    eprintln!(
+        "{}: {width}x{height}, {} methods, {} s each{}, samples from {first_sample} on (after the reference's {} spp)",
+        scene.name(),
+        methods.len(),
+        a.budget,
+        a.spp.map(|n| format!(" (at most {n} spp)")).unwrap_or_default(),
+        reference.spp
+    );
+    // One untimed pass first, so that the first method does not pay for cold caches and
+    // sleeping threads.
+    if let Some(m) = methods.first() {
+        let warm = Budget {
+            max_spp: Some(1),
+            ..budget
+        };
+        converge::run_method(&scene, &base, m, &reference.pixels, &regions, &warm, &pool)?;
+    }
+    let mut runs = Vec::with_capacity(methods.len());
+    for (i, m) in methods.iter().enumerate() {
+        let run = converge::run_method(
+            &scene,
+            &base,
+            m,
+            &reference.pixels,
+            &regions,
+            &budget,
+            &pool,
+        )?;
+        if let Some(last) = run.checkpoints.last() {
+            eprintln!(
+                "[{}/{}] {}: {} spp in {:.2} s, RMSE {:.4e} over {region_name}",
+                i + 1,
+                methods.len(),
+                m.name(),
+                last.spp,
+                last.seconds,
+                last.errors[chart_region].rmse
+            );
+        }
+        if run.nonfinite > 0 {
+            eprintln!(
+                "warning: {}: {} samples were NaN or infinite and were dropped",
+                m.name(),
+                run.nonfinite
+            );
+        }
+        runs.push(run);
+    }
+
+    let csv_path = out_dir.join("convergence.csv");
+    let text = converge::csv(&runs, &regions);
+    stokes::output::write_atomically(&csv_path, |tmp| {
+        std::fs::write(tmp, text.as_bytes()).map_err(|e| format!("cannot write: {e}"))
+    })?;
+    let names = converge::short_names(&methods);
+    let over = if chart_region == 0 {
+        "the whole image".to_string()
+    } else {
+        format!("region `{region_name}`")
+    };
+    for (file, x_label, x_of) in [
+        (
+            "error-vs-time",
+            "seconds of rendering",
+            (|c: &converge::Checkpoint| c.seconds) as fn(&converge::Checkpoint) -> f64,
+        ),
+        ("error-vs-spp", "samples per pixel", |c| c.spp as f64),
+    ] {
+        let chart = stokes::chart::LogLogChart {
+            title: format!(
+                "{} {width}x{height}: RMSE over {over} against {}",
+                scene.name(),
+                if file == "error-vs-time" {
+                    "time"
+                } else {
+                    "spp"
+                }
+            ),
+            x_label: x_label.into(),
+            y_label: "RMSE (linear sRGB)".into(),
+            series: runs
+                .iter()
+                .zip(&names)
+                .map(|(run, name)| stokes::chart::Series {
+                    name: name.clone(),
+                    points: run
+                        .checkpoints
+                        .iter()
+                        .map(|c| (x_of(c), c.errors[chart_region].rmse))
+                        .collect(),
+                })
+                .collect(),
+            reference_slope: true,
+        };
+        stokes::chart::write_svg(&chart, &out_dir.join(format!("{file}.svg")))?;
+        stokes::chart::write_png(&chart, &out_dir.join(format!("{file}.png")))?;
+    }
+
+    let (target, worst, rows) = converge::summarize(&runs, chart_region);
+    println!(
+        "{} {width}x{height} against {} ({} spp)",
+        scene.name(),
+        r,
+        reference.spp
+    );
+    let var_path = stokes::merge::variance_path(&a.reference);
+    if let Ok((vw, vh, var, _)) = stokes::output::read_exr(&var_path) {
+        if (vw, vh) == (width, height) {
+            let px = &regions[chart_region].pixels;
+            let mean_var = px
+                .iter()
+                .map(|&i| var[i].iter().map(|&v| v as f64).sum::<f64>())
+                .sum::<f64>()
+                / (3 * px.len()) as f64;
+            println!(
+                "the reference's own noise over {over}: RMSE ≈ {:.3e} (from {}); errors near it are the reference's",
+                mean_var.sqrt(),
+                var_path.display()
+            );
+        }
+    }
+    println!();
+    print!(
+        "{}",
+        converge::format_summary(region_name, target, &worst, &rows)
+    );
+    eprintln!(
+        "→ {}, {}/error-vs-time.svg/.png, {}/error-vs-spp.svg/.png",
+        csv_path.display(),
+        out_dir.display(),
+        out_dir.display()
+    );
     Ok(())
 }

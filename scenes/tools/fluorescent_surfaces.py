@@ -66,6 +66,14 @@ reflectance = {{ wavelengths = [360, 450, 510, 560, 600, 830], values = [0.45, 0
 dye = {{ absorption = {{ wavelengths = [460, 500, 545, 565, 590], values = [0, 0.5, 0.9, 0.8, 0] }}, emission = {{ wavelengths = [560, 580, 600, 630, 680], values = [0, 0.7, 1, 0.5, 0] }}, quantum_yield = 0.7 }}
 """
 
+# The row of fluorescent patches (x 98..458, y 90..190 at z = 558.2) projected into the
+# 512x512 image (pixels 161.0..351.0 by 299.8..352.6), one pixel inside.
+REGION = """[[region]]  # the row of fluorescent patches (stokes converge reports its error)
+name = "patches"
+min = [162, 301]
+max = [350, 352]
+"""
+
 WALLS = [("floor", "white"), ("ceiling", "white"), ("back", "white"),
          ("redwall", "red"), ("greenwall", "green")]
 
@@ -109,6 +117,7 @@ def main():
             out.append(f'[[shapes]]  # fluorescent patch: {m}\ntype = "quad"\n'
                        f'origin = [{x_hi - fsize:.1f}, 90.0, {z}]\n'
                        f'edge_u = [0, {fsize}, 0]\nedge_v = [{fsize}, 0, 0]\nmaterial = "{m}"\n')
+        out.append(REGION)
         open(path, "w").write("\n".join(out))
 
 

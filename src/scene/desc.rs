@@ -57,6 +57,30 @@ pub struct SceneDesc {
     /// Shapes, in order: the geometry id of a shape's first mesh follows this order.
     #[serde(default)]
     pub shapes: Vec<ShapeDesc>,
+    /// Named regions of interest of the image (`[[region]]`), for `stokes converge`.
+    #[serde(default, rename = "region")]
+    pub regions: Vec<RegionDesc>,
+}
+
+/// A named region of interest: a rectangle of pixels of the camera's resolution (x to
+/// the right, y down; `min` inclusive, `max` exclusive), scaled when rendering at
+/// another resolution. `stokes converge` reports the error over each region.
+///
+/// ```toml
+/// [[region]]
+/// name = "patches"
+/// min = [162, 301]
+/// max = [350, 352]
+/// ```
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionDesc {
+    /// A name for reports: letters, digits, `-` and `_`.
+    pub name: String,
+    /// The first pixel column and row.
+    pub min: [u32; 2],
+    /// One past the last pixel column and row.
+    pub max: [u32; 2],
 }
 
 /// A pinhole camera.

@@ -77,6 +77,52 @@ pub struct Scene {
     /// Things worth telling the user that are not errors (clamped matrix entries, energy
     /// gain), one message each.
     pub warnings: Vec<String>,
+    /// Named regions of interest of the image (`[[region]]`), in file order.
+    pub regions: Vec<Region>,
+}
+
+/// A named region of interest (`[[region]]`): a rectangle of pixels of the scene file's
+/// camera resolution, `[min, max)` on each axis (x to the right, y down).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Region {
+    /// Its name in reports.
+    pub name: String,
+    /// First column and row.
+    pub min: [u32; 2],
+    /// One past the last column and row.
+    pub max: [u32; 2],
+    /// The resolution `min` and `max` refer to: the scene file's `camera.resolution`.
+    pub resolution: [u32; 2],
+}
+
+impl Region {
+    /// The rectangle `[x0, x1) × [y0, y1)`, as `[x0, y0, x1, y1]`, at `width`×`height`:
+    /// the pixels whose centres fall inside the region scaled to that resolution (each
+    /// axis by its own factor), and at least the pixel under the region's centre.
+    pub fn rect(&self, width: u32, height: u32) -> [u32; 4] {
+        let axis = |lo: u32, hi: u32, base: u32, n: u32| -> (u32, u32) {
+            let s = n as f64 / base.max(1) as f64;
+            let first = |v: u32| ((v as f64 * s - 0.5).ceil().max(0.0) as u32).min(n);
+            let (a, b) = (first(lo), first(hi));
+            if a < b {
+                (a, b)
+            } else {
+                let c = (((lo + hi) as f64 * 0.5 * s).floor() as u32).min(n.saturating_sub(1));
+                (c, c + 1)
+            }
+        };
+        let (x0, x1) = axis(self.min[0], self.max[0], self.resolution[0], width);
+        let (y0, y1) = axis(self.min[1], self.max[1], self.resolution[1], height);
+        [x0, y0, x1, y1]
+    }
+
+    /// The row-major indices of [`Region::rect`]'s pixels at `width`×`height`.
+    pub fn pixels(&self, width: u32, height: u32) -> Vec<usize> {
+        let [x0, y0, x1, y1] = self.rect(width, height);
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| y as usize * width as usize + x as usize))
+            .collect()
+    }
 }
 
 impl Scene {
@@ -219,6 +265,7 @@ impl Builder<'_> {
             c.resolution[0],
             c.resolution[1],
         )?;
+        let regions = self.regions()?;
         if d.render.spp == 0 {
             return Err("render.spp: expected at least 1 sample per pixel, found 0".into());
         }
@@ -375,7 +422,56 @@ impl Builder<'_> {
             camera_medium,
             bounds: (lo, hi),
             warnings: self.warnings,
+            regions,
         })
+    }
+
+    /// The `[[region]]` tables, checked against the camera's resolution.
+    fn regions(&self) -> Result<Vec<Region>, String> {
+        let res = self.desc.camera.resolution;
+        let mut out: Vec<Region> = Vec::new();
+        for (i, r) in self.desc.regions.iter().enumerate() {
+            let key = format!("region[{i}]");
+            let n = &r.name;
+            if n.is_empty()
+                || !n
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+            {
+                return Err(format!(
+                    "{key}.name: expected letters, digits, `-` and `_`, found {n:?}"
+                ));
+            }
+            if n == "image" {
+                return Err(format!(
+                    "{key}.name: `image` is reserved for the whole image; choose another name"
+                ));
+            }
+            if out.iter().any(|o| &o.name == n) {
+                return Err(format!("{key}.name: another region is already named {n:?}"));
+            }
+            for (axis, what) in [(0, "x"), (1, "y")] {
+                if r.min[axis] >= r.max[axis] {
+                    return Err(format!(
+                        "{key}: expected min < max, found {what} from {} to {}",
+                        r.min[axis], r.max[axis]
+                    ));
+                }
+                if r.max[axis] > res[axis] {
+                    return Err(format!(
+                        "{key}.max: expected a rectangle inside camera.resolution {:?} (pixels of the scene's own resolution), found {what} up to {}",
+                        res, r.max[axis]
+                    ));
+                }
+            }
+            out.push(Region {
+                name: n.clone(),
+                min: r.min,
+                max: r.max,
+                resolution: res,
+            });
+        }
+        Ok(out)
     }
 
     fn medium(&self, key: &str, m: &desc::MediumDesc) -> Result<Homogeneous, String> {
