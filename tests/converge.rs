@@ -181,10 +181,10 @@ fn furnace_error_falls_as_one_over_root_spp() {
     let rows = read_csv(&out.join("convergence.csv"));
     // No fluorescence, media or dispersion: spectral × rays only.
     let expect = [
-        "hwss-independent-classic-single-drop",
-        "hwss-independent-classic-packet-drop",
-        "mono-independent-classic-single-drop",
-        "mono-independent-classic-packet-drop",
+        "hwss-independent-classic-single-split",
+        "hwss-independent-classic-packet-split",
+        "mono-independent-classic-single-split",
+        "mono-independent-classic-packet-split",
     ];
     assert_eq!(methods(&rows), expect);
     let checkpoints: Vec<u32> = (0..=8).map(|k| 1 << k).collect();
@@ -265,7 +265,7 @@ fn furnace_error_falls_as_one_over_root_spp() {
         &s(&out2),
     ]);
     let rows2 = read_csv(&out2.join("convergence.csv"));
-    for m in [expect[0], expect[2]] {
+    for m in [expect[1], expect[3]] {
         let k = slope(&curve(&rows2, m, "image"));
         assert!(
             k > -0.35,
@@ -294,11 +294,11 @@ fn furnace_error_falls_as_one_over_root_spp() {
     assert_eq!(
         methods(&rows3),
         [
-            "mono-independent-classic-packet-drop",
-            "hwss-independent-classic-single-drop"
+            "mono-independent-classic-packet-split",
+            "hwss-independent-classic-packet-split"
         ]
     );
-    let spps: Vec<u32> = curve(&rows3, "hwss-independent-classic-single-drop", "image")
+    let spps: Vec<u32> = curve(&rows3, "hwss-independent-classic-packet-split", "image")
         .iter()
         .map(|p| p.0)
         .collect();
@@ -321,8 +321,8 @@ fn furnace_error_falls_as_one_over_root_spp() {
     assert_eq!(
         methods(&read_csv(&out4.join("convergence.csv"))),
         [
-            "mono-independent-classic-single-drop",
-            "mono-independent-classic-packet-drop"
+            "mono-independent-classic-single-split",
+            "mono-independent-classic-packet-split"
         ]
     );
 }
@@ -370,7 +370,7 @@ fn classic_tracking_is_biased_in_the_fluorescent_slab() {
         for shifting in shiftings {
             for tracking in ["classic", "max", "fluo-aware"] {
                 for rays in ["single", "packet"] {
-                    want.push(format!("{spectral}-{shifting}-{tracking}-{rays}-drop"));
+                    want.push(format!("{spectral}-{shifting}-{tracking}-{rays}-split"));
                 }
             }
         }
@@ -394,8 +394,8 @@ fn classic_tracking_is_biased_in_the_fluorescent_slab() {
     args.extend(res);
     ok(&args);
     let rows = read_csv(&out.join("convergence.csv"));
-    let classic = curve(&rows, "hwss-independent-classic-single-drop", "slab");
-    let aware = curve(&rows, "hwss-independent-fluo-aware-single-drop", "slab");
+    let classic = curve(&rows, "hwss-independent-classic-packet-split", "slab");
+    let aware = curve(&rows, "hwss-independent-fluo-aware-packet-split", "slab");
     let (kc, ka) = (slope(&classic), slope(&aware));
     assert!(
         kc > -0.2,
