@@ -137,6 +137,7 @@ fn masked_lanes_never_contribute_and_a_lone_lane_equals_the_single_ray_path() {
     for (file, dispersion) in [
         ("cornell-box.toml", Dispersion::Drop),
         ("dispersive furnace", Dispersion::Split),
+        ("fluorescent-volume-440nm.toml", Dispersion::Split),
     ] {
         let mut scene = if file.ends_with(".toml") {
             scene_file(file)
@@ -180,7 +181,11 @@ fn masked_lanes_never_contribute_and_a_lone_lane_equals_the_single_ray_path() {
                         }
                     }
                 }
-                wave.run::<false>(&scene, &po, grouping, &mut results, &mut stats);
+                if scene.has_media() {
+                    wave.run::<true>(&scene, &po, grouping, &mut results, &mut stats);
+                } else {
+                    wave.run::<false>(&scene, &po, grouping, &mut results, &mut stats);
+                }
                 for k in 0..n as usize {
                     assert_eq!(
                         results[k], want[k],

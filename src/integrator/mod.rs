@@ -217,63 +217,111 @@ fn medium_after_crossing(scene: &Scene, geom: u32, ng: Vec3, dir: Vec3) -> Optio
     }
 }
 
-/// Transmittance and tracking pass probabilities along a shadow ray: `None` if something
-/// opaque blocks it. Index-matched medium boundaries are crossed; every medium segment
-/// multiplies the transmittance e^{−σ̂_t d} (per lane) and, for MIS, the probability that
-/// `tracking` would have passed the segment with lane j as hero.
-fn shadow_transmittance(
-    scene: &Scene,
-    mut ray: Ray,
-    mut medium: Option<u32>,
+/// A next-event shadow ray through media, traced one segment at a time: each segment
+/// ends at the next surface; an index-matched medium boundary is crossed, anything else
+/// blocks the ray. Every medium segment multiplies the transmittance e^{−σ̂_t d} (per
+/// lane) and, for MIS, the probability that `tracking` would have passed the segment
+/// with lane j as hero.
+#[derive(Debug, Clone, Copy)]
+pub struct MediaShadow {
+    /// The medium the current segment runs in.
+    medium: Option<u32>,
+    /// The path's wavelengths.
     lambda: Vec4,
-    tracking: Tracking,
-    stats: &mut PathStats,
-) -> Option<(Vec4, Vec4)> {
-    stats.rays += 1;
-    if !scene.has_media() {
-        return if scene.accel.occluded1(&ray) {
-            None
-        } else {
-            Some((Vec4::ONE, Vec4::ONE))
-        };
-    }
-    let mut tr = Vec4::ONE;
-    let mut pass = Vec4::ONE;
-    for _ in 0..64 {
-        let hit = scene.accel.intersect1(&ray);
-        let seg = hit.map_or(ray.tfar, |h| h.t);
-        if let Some(m) = medium {
-            let med = &scene.media[m as usize];
-            let (st, ss) = (med.sigma_t_hat(lambda), med.sigma_s_hat(lambda));
-            let len = seg * ray.dir.length();
-            tr *= tracking::transmittance(st, len);
-            pass *= tracking::prob_surface(tracking, st, ss, len);
+    /// The path's MIS ratios at the vertex.
+    ratio: Vec4,
+    /// Solid-angle pdf of the light sample.
+    p_light: f32,
+    /// Per-lane pdf of BSDF or phase sampling the same direction.
+    pdf_dir: Vec4,
+    /// Transmittance so far.
+    tr: Vec4,
+    /// Tracking pass probability so far.
+    pass: Vec4,
+    /// Boundaries crossed so far.
+    crossings: u32,
+}
+
+/// Where a shadow ray stands after one traced segment.
+pub enum ShadowStep {
+    /// Something opaque is in the way (or the ray crossed too many boundaries).
+    Blocked,
+    /// The light is reached: the path adds this.
+    Reached(Vec4),
+    /// A boundary was crossed: trace the query's ray again.
+    Continue,
+}
+
+impl MediaShadow {
+    /// A shadow ray leaving in `medium`, for a vertex with MIS ratios `ratio`, light pdf
+    /// `p_light` and direction-sampling pdf `pdf_dir`.
+    pub(crate) fn new(
+        medium: Option<u32>,
+        lambda: Vec4,
+        ratio: Vec4,
+        p_light: f32,
+        pdf_dir: Vec4,
+    ) -> MediaShadow {
+        MediaShadow {
+            medium,
+            lambda,
+            ratio,
+            p_light,
+            pdf_dir,
+            tr: Vec4::ONE,
+            pass: Vec4::ONE,
+            crossings: 0,
         }
+    }
+
+    /// Accounts for the segment of `ray` that ended at `hit` (`None`: at the light) and,
+    /// on a crossing, moves `ray` on to the next segment. `base` is the contribution
+    /// before transmittance and MIS (β·f·L_e).
+    pub fn segment(
+        &mut self,
+        scene: &Scene,
+        ray: &mut Ray,
+        hit: Option<crate::accel::Hit>,
+        tracking: Tracking,
+        base: Vec4,
+    ) -> ShadowStep {
+        let seg = hit.map_or(ray.tfar, |h| h.t);
+        if let Some(m) = self.medium {
+            let med = &scene.media[m as usize];
+            let (st, ss) = (med.sigma_t_hat(self.lambda), med.sigma_s_hat(self.lambda));
+            let len = seg * ray.dir.length();
+            self.tr *= tracking::transmittance(st, len);
+            self.pass *= tracking::prob_surface(tracking, st, ss, len);
+        }
+        let reached = |s: &MediaShadow| {
+            let denom = (s.ratio * (Vec4::splat(s.p_light) + s.pdf_dir * s.pass)).element_sum();
+            ShadowStep::Reached(base * s.tr / denom)
+        };
         let Some(h) = hit else {
-            return Some((tr, pass));
+            return reached(self);
         };
         let g = &scene.geometries[h.geom_id as usize];
-        if !g.is_null_interface() {
-            return None;
+        self.crossings += 1;
+        if !g.is_null_interface() || self.crossings > 64 {
+            return ShadowStep::Blocked;
         }
         let ng = h.ng.normalize();
-        medium = medium_after_crossing(scene, h.geom_id, ng, ray.dir);
+        self.medium = medium_after_crossing(scene, h.geom_id, ng, ray.dir);
         let p = ray.org + ray.dir * h.t;
         let eps = spawn_eps(p);
         let org = p + ng * (eps * ng.dot(ray.dir).signum());
         let rest = ray.tfar - h.t - eps;
         if rest <= 0.0 {
-            return Some((tr, pass));
+            return reached(self);
         }
-        ray = Ray {
+        *ray = Ray {
             org,
             dir: ray.dir,
             tnear: 0.0,
             tfar: rest,
         };
-        stats.rays += 1;
+        ShadowStep::Continue
     }
-    None
 }
 
 /// A vertex that BSDF or phase sampling left, remembered for MIS when the continuation
@@ -332,9 +380,24 @@ fn trace_single<const MEDIA: bool>(
             let hit = scene.accel.intersect1(&p.ray);
             let mut shadow = None;
             let alive = p.step::<MEDIA>(scene, opts, hit, stats, &mut shadow, &mut split);
-            if let Some(s) = shadow {
-                if !scene.accel.occluded1(&s.ray) {
-                    p.l += s.contribution;
+            if let Some(mut s) = shadow {
+                match s.media.as_mut() {
+                    None => {
+                        if !scene.accel.occluded1(&s.ray) {
+                            p.l += s.contribution;
+                        }
+                    }
+                    Some(m) => loop {
+                        let hit = scene.accel.intersect1(&s.ray);
+                        match m.segment(scene, &mut s.ray, hit, opts.tracking, s.contribution) {
+                            ShadowStep::Blocked => break,
+                            ShadowStep::Reached(c) => {
+                                p.l += c;
+                                break;
+                            }
+                            ShadowStep::Continue => stats.rays += 1,
+                        }
+                    },
                 }
             }
             if !alive {

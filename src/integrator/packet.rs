@@ -1,5 +1,6 @@
 //! Packet tracing: many paths advance together, one bounce at a time, and every query —
-//! camera, bounce and next-event shadow rays — goes to Embree four rays at a time.
+//! camera, bounce and next-event shadow rays (in media: each shadow-ray segment between
+//! index-matched boundaries) — goes to Embree four rays at a time.
 //!
 //! The paths of a [`Wavefront`] start as 2×2 pixel quads, so the first packets are the
 //! coherent camera rays of one quad. After each bounce the surviving paths are either
@@ -11,7 +12,7 @@
 //! same random numbers, so both modes compute the same estimate per pixel sample.
 
 use super::path::{Path, ShadowQuery};
-use super::{PathOptions, PathStats};
+use super::{PathOptions, PathStats, ShadowStep};
 use crate::accel::{Coherence, Hit, RayHit4};
 use crate::scene::Scene;
 use glam::Vec4;
@@ -159,6 +160,9 @@ impl Wavefront {
             }
 
             // Next-event shadow rays, four per query.
+            if MEDIA {
+                self.trace_media_shadows(scene, opts, stats);
+            }
             for group in self.shadows.chunks(4) {
                 let mut packet = RayHit4::new();
                 let mut mask = [false; 4];
@@ -214,5 +218,41 @@ impl Wavefront {
                 }
             }
         }
+    }
+
+    /// Traces the shadow rays of a scene with media segment by segment, four segments per
+    /// `intersect4`, until each is blocked or reaches its light; empties `shadows`.
+    fn trace_media_shadows(&mut self, scene: &Scene, opts: &PathOptions, stats: &mut PathStats) {
+        let mut pending = std::mem::take(&mut self.shadows);
+        while !pending.is_empty() {
+            let mut next = Vec::new();
+            for group in pending.chunks_mut(4) {
+                let mut packet = RayHit4::new();
+                let mut mask = [false; 4];
+                for (k, (_, s)) in group.iter().enumerate() {
+                    packet.set_ray(k, &s.ray);
+                    mask[k] = true;
+                }
+                scene
+                    .accel
+                    .intersect4(&mut packet, mask, Coherence::Incoherent);
+                self.lanes_total += 4;
+                self.lanes_used += group.len() as u64;
+                for (k, (i, s)) in group.iter_mut().enumerate() {
+                    let Some(m) = s.media.as_mut() else { continue };
+                    let hit = packet.hit(k);
+                    match m.segment(scene, &mut s.ray, hit, opts.tracking, s.contribution) {
+                        ShadowStep::Blocked => {}
+                        ShadowStep::Reached(c) => self.paths[*i as usize].l += c,
+                        ShadowStep::Continue => {
+                            stats.rays += 1;
+                            next.push((*i, *s));
+                        }
+                    }
+                }
+            }
+            pending = next;
+        }
+        self.shadows = pending;
     }
 }

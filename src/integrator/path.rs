@@ -8,12 +8,12 @@
 //! A shadow ray is deferred, not traced inside the step: its contribution depends on
 //! nothing the step computes afterwards and the step draws no random numbers for it, so
 //! a path's random numbers and its sum of contributions come out in the same order under
-//! both drivers. (With media, shadow rays cross index-matched boundaries one segment at
-//! a time; they are still traced inside the step.)
+//! both drivers. With media, a shadow ray crosses index-matched boundaries one segment
+//! at a time ([`MediaShadow`]); the drivers trace each segment as a query of its own.
 
 use super::{
-    medium_after_crossing, russian_roulette, shadow_ray, shadow_transmittance, shift_wavelengths,
-    spawn_eps, Dispersion, EmissionCache, PathOptions, PathStats, PrevVertex, Shifting, Spectral,
+    medium_after_crossing, russian_roulette, shadow_ray, shift_wavelengths, spawn_eps, Dispersion,
+    EmissionCache, MediaShadow, PathOptions, PathStats, PrevVertex, Shifting, Spectral,
 };
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Lobe, Material};
@@ -22,13 +22,17 @@ use crate::sampler::{mix64, LazyStream, Pcg32};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
 
-/// A shadow ray whose contribution counts if nothing blocks it.
+/// A next-event shadow ray the path asks its driver to trace.
 #[derive(Debug, Clone, Copy)]
 pub struct ShadowQuery {
-    /// From the shading point to the light sample.
+    /// From the shading point to the light sample (in media: the current segment).
     pub ray: Ray,
-    /// What the path adds to its radiance if the ray is unoccluded.
+    /// Without media: what the path adds if nothing blocks the ray. With media: β·f·L_e,
+    /// to be multiplied by the transmittance and divided by the MIS sum.
     pub contribution: Vec4,
+    /// In scenes with media: the ray's state from segment to segment (index-matched
+    /// boundaries are crossed, see [`MediaShadow::segment`]).
+    pub media: Option<MediaShadow>,
 }
 
 /// The lane layout of a path's result: all four camera wavelengths, or, for a path split
@@ -183,19 +187,19 @@ impl Path {
                             let f = phase.eval_dirs(wo, wi);
                             let pdf_dir = phase.pdf(wo, wi);
                             let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
-                            if let Some((tr, pass)) = shadow_transmittance(
-                                scene,
-                                sray,
-                                Some(m),
-                                self.lambda,
-                                opts.tracking,
-                                stats,
-                            ) {
-                                let p_light = ls.pdf_area * d2 / cos_l.abs();
-                                let denom = (self.ratio * (Vec4::splat(p_light) + pass * pdf_dir))
-                                    .element_sum();
-                                self.l += self.beta * tr * le * (f / denom);
-                            }
+                            let p_light = ls.pdf_area * d2 / cos_l.abs();
+                            stats.rays += 1;
+                            *shadow = Some(ShadowQuery {
+                                ray: sray,
+                                contribution: self.beta * le * f,
+                                media: Some(MediaShadow::new(
+                                    Some(m),
+                                    self.lambda,
+                                    self.ratio,
+                                    p_light,
+                                    Vec4::splat(pdf_dir),
+                                )),
+                            });
                         }
                     }
                     let (wi, pdf_dir) = phase.sample(wo, self.rng.next_2d());
@@ -312,34 +316,34 @@ impl Path {
                         let le = self.le_cache.get(ls.emitter, self.lambda, lights);
                         let p_light = ls.pdf_area * d2 / cos_l.abs();
                         let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
-                        if MEDIA {
+                        stats.rays += 1;
+                        *shadow = Some(if MEDIA {
                             // Leaving the surface towards wi: which medium is the shadow ray in?
                             let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
                                 self.medium
                             } else {
                                 medium_after_crossing(scene, hit.geom_id, ng, wi)
                             };
-                            if let Some((tr, pass)) = shadow_transmittance(
-                                scene,
-                                sray,
-                                m_out,
-                                self.lambda,
-                                opts.tracking,
-                                stats,
-                            ) {
-                                let denom = (self.ratio * (Vec4::splat(p_light) + pdf_bsdf * pass))
-                                    .element_sum();
-                                self.l += self.beta * tr * f_cos * le / denom;
+                            ShadowQuery {
+                                ray: sray,
+                                contribution: self.beta * f_cos * le,
+                                media: Some(MediaShadow::new(
+                                    m_out,
+                                    self.lambda,
+                                    self.ratio,
+                                    p_light,
+                                    pdf_bsdf,
+                                )),
                             }
                         } else {
-                            stats.rays += 1;
                             let denom =
                                 (self.ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();
-                            *shadow = Some(ShadowQuery {
+                            ShadowQuery {
                                 ray: sray,
                                 contribution: self.beta * f_cos * le / denom,
-                            });
-                        }
+                                media: None,
+                            }
+                        });
                     }
                 }
             }
