@@ -191,7 +191,7 @@ impl EmissionCache {
 /// a medium) towards the other. The ray runs between the *offset* points: measuring the
 /// length from the unshifted point instead makes the ray reach the light's own surface at
 /// grazing angles.
-#[inline]
+#[inline(always)]
 pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, nq: Vec3, wi: Vec3) -> Ray {
     let org = p + n * (spawn_eps(p) * n.dot(wi).signum());
     let target = q - nq * (spawn_eps(q) * nq.dot(wi).signum());
@@ -356,12 +356,12 @@ pub fn radiance(
     shift_rng: LazyStream,
     stats: &mut PathStats,
 ) -> Vec4 {
-    let path = Path::new(scene, camera_ray, lambda, opts, rng, shift_rng, 0);
+    let mut path = Path::new(scene, camera_ray, lambda, opts, rng, shift_rng, 0);
     // Scenes without media get a path loop with the medium code compiled out.
     if scene.has_media() {
-        trace_single::<true>(scene, opts, path, stats)
+        trace_single::<true>(scene, opts, &mut path, stats)
     } else {
-        trace_single::<false>(scene, opts, path, stats)
+        trace_single::<false>(scene, opts, &mut path, stats)
     }
 }
 
@@ -369,44 +369,59 @@ pub fn radiance(
 fn trace_single<const MEDIA: bool>(
     scene: &Scene,
     opts: &PathOptions,
-    path: Path,
+    path: &mut Path,
     stats: &mut PathStats,
 ) -> Vec4 {
     let mut acc = Vec4::ZERO;
     let mut split: Vec<Path> = Vec::new(); // allocates only when a path splits
-    let mut next = Some(path);
-    while let Some(mut p) = next.take().or_else(|| split.pop()) {
-        loop {
-            let hit = scene.accel.intersect1(&p.ray);
-            let mut shadow = None;
-            let alive = p.step::<MEDIA>(scene, opts, hit, stats, &mut shadow, &mut split);
-            if let Some(mut s) = shadow {
-                match s.media.as_mut() {
-                    None => {
-                        if !scene.accel.occluded1(&s.ray) {
-                            p.l += s.contribution;
-                        }
-                    }
-                    Some(m) => loop {
-                        let hit = scene.accel.intersect1(&s.ray);
-                        match m.segment(scene, &mut s.ray, hit, opts.tracking, s.contribution) {
-                            ShadowStep::Blocked => break,
-                            ShadowStep::Reached(c) => {
-                                p.l += c;
-                                break;
-                            }
-                            ShadowStep::Continue => stats.rays += 1,
-                        }
-                    },
-                }
-            }
-            if !alive {
-                break;
-            }
-        }
-        p.add_to(&mut acc);
+    run_single::<MEDIA>(scene, opts, path, stats, &mut split);
+    path.add_to(&mut acc);
+    while let Some(mut child) = split.pop() {
+        run_single::<MEDIA>(scene, opts, &mut child, stats, &mut split);
+        child.add_to(&mut acc);
     }
     acc
+}
+
+/// Steps one path to its end, tracing each query as it comes (paths are advanced in
+/// place: they are a few hundred bytes, and copying them showed in profiles).
+#[inline(always)]
+fn run_single<const MEDIA: bool>(
+    scene: &Scene,
+    opts: &PathOptions,
+    p: &mut Path,
+    stats: &mut PathStats,
+    split: &mut Vec<Path>,
+) {
+    let mut shadow = None;
+    loop {
+        let hit = scene.accel.intersect1(&p.ray);
+        let alive = p.step::<MEDIA>(scene, opts, hit, stats, &mut shadow, split);
+        if let Some(s) = shadow.as_mut() {
+            match s.media.as_mut() {
+                None => {
+                    if !scene.accel.occluded1(&s.ray) {
+                        p.l += s.contribution;
+                    }
+                }
+                Some(m) => loop {
+                    let hit = scene.accel.intersect1(&s.ray);
+                    match m.segment(scene, &mut s.ray, hit, opts.tracking, s.contribution) {
+                        ShadowStep::Blocked => break,
+                        ShadowStep::Reached(c) => {
+                            p.l += c;
+                            break;
+                        }
+                        ShadowStep::Continue => stats.rays += 1,
+                    }
+                },
+            }
+            shadow = None;
+        }
+        if !alive {
+            break;
+        }
+    }
 }
 
 /// Russian roulette on the weighted throughput after the third bounce: `false` ends the

@@ -120,7 +120,7 @@ impl Path {
     /// ray in [`Path::ray`]). A next-event shadow ray to trace is left in `shadow`; a
     /// split at a dispersive refraction ends this path and leaves its single-wavelength
     /// continuations in `children`.
-    #[inline]
+    #[inline(always)]
     pub fn step<const MEDIA: bool>(
         &mut self,
         scene: &Scene,

@@ -175,18 +175,18 @@ fn pixel_sample_checked(
     poison: bool,
     stats: &mut PathStats,
 ) -> Option<Vec3> {
-    let (p, lambda) = start_sample(scene, opts, path, x, y, sample, 0);
+    let (mut p, lambda) = start_sample(scene, opts, path, x, y, sample, 0);
     let l = if scene.has_media() {
-        super::trace_single::<true>(scene, path, p, stats)
+        super::trace_single::<true>(scene, path, &mut p, stats)
     } else {
-        super::trace_single::<false>(scene, path, p, stats)
+        super::trace_single::<false>(scene, path, &mut p, stats)
     };
     finish_sample(lambda, l, poison, stats)
 }
 
 /// The camera path of one pixel sample and its wavelengths: a jittered ray through the
 /// pixel, the wavelengths, and the sample's two random streams.
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn start_sample(
     scene: &Scene,
