@@ -54,6 +54,16 @@ pub struct Wavefront {
 }
 
 impl Wavefront {
+    /// Makes room for `lanes` paths (and as many hits) without reallocating.
+    pub fn reserve(&mut self, lanes: usize) {
+        self.paths.reserve(lanes);
+        self.active.reserve(lanes);
+        self.next.reserve(lanes);
+        self.hits.reserve(lanes);
+        self.ended.reserve(lanes);
+        self.shadows.reserve(lanes);
+    }
+
     /// Empties the batch.
     pub fn clear(&mut self) {
         self.paths.clear();

@@ -393,53 +393,61 @@ fn pass_packet<const MEDIA: bool>(
         .par_chunks_mut(2 * w)
         .zip(film.sum_sq.par_chunks_mut(2 * w))
         .enumerate()
-        .map(|(pair, (sum, sq))| {
-            let mut st = PathStats::default();
-            let rows = sum.len() / w;
-            let y0 = 2 * pair;
-            let mut wave = Wavefront::default();
-            let mut results = vec![Vec4::ZERO; rows * w];
-            let mut lambdas = vec![Vec4::ZERO; rows * w];
-            for s in first..first + count {
-                wave.clear();
-                for qx in 0..w.div_ceil(2) {
-                    for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                        let (x, ly) = (2 * qx + dx, dy);
-                        if x >= w || ly >= rows {
-                            wave.push_empty();
-                            continue;
+        // One wavefront and its buffers per rayon job, reused over its row pairs: a pass
+        // is one sample per pixel, and allocating them per row pair showed in profiles.
+        .map_init(
+            || {
+                let mut wave = Wavefront::default();
+                wave.reserve(4 * w.div_ceil(2));
+                (wave, vec![Vec4::ZERO; 2 * w], vec![Vec4::ZERO; 2 * w])
+            },
+            |(wave, results, lambdas), (pair, (sum, sq))| {
+                let mut st = PathStats::default();
+                let rows = sum.len() / w;
+                let y0 = 2 * pair;
+                for s in first..first + count {
+                    wave.clear();
+                    for qx in 0..w.div_ceil(2) {
+                        for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                            let (x, ly) = (2 * qx + dx, dy);
+                            if x >= w || ly >= rows {
+                                wave.push_empty();
+                                continue;
+                            }
+                            let slot = ly * w + x;
+                            let (p, lambda) = start_sample(
+                                scene,
+                                opts,
+                                path,
+                                x as u32,
+                                (y0 + ly) as u32,
+                                s,
+                                slot as u32,
+                            );
+                            lambdas[slot] = lambda;
+                            wave.push(p);
                         }
-                        let slot = ly * w + x;
-                        let (p, lambda) = start_sample(
-                            scene,
-                            opts,
-                            path,
-                            x as u32,
-                            (y0 + ly) as u32,
-                            s,
-                            slot as u32,
-                        );
-                        lambdas[slot] = lambda;
-                        wave.push(p);
+                    }
+                    results.fill(Vec4::ZERO);
+                    wave.run::<MEDIA>(scene, path, grouping, results, &mut st);
+                    st.lanes_used += std::mem::take(&mut wave.lanes_used);
+                    st.lanes_total += std::mem::take(&mut wave.lanes_total);
+                    for slot in 0..rows * w {
+                        let pixel = (y0 * w + slot) as u64;
+                        let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
+                        if let Some(c) =
+                            finish_sample(lambdas[slot], results[slot], poison, &mut st)
+                        {
+                            accumulate(&mut sum[slot], &mut sq[slot], c);
+                        }
                     }
                 }
-                results.fill(Vec4::ZERO);
-                wave.run::<MEDIA>(scene, path, grouping, &mut results, &mut st);
-                st.lanes_used += std::mem::take(&mut wave.lanes_used);
-                st.lanes_total += std::mem::take(&mut wave.lanes_total);
-                for slot in 0..rows * w {
-                    let pixel = (y0 * w + slot) as u64;
-                    let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
-                    if let Some(c) = finish_sample(lambdas[slot], results[slot], poison, &mut st) {
-                        accumulate(&mut sum[slot], &mut sq[slot], c);
-                    }
+                for _ in 0..rows {
+                    on_row();
                 }
-            }
-            for _ in 0..rows {
-                on_row();
-            }
-            st
-        })
+                st
+            },
+        )
         .reduce(PathStats::default, add_stats)
 }
 
