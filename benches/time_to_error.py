@@ -1,0 +1,68 @@
+#!/usr/bin/env python3
+"""Time for each method to reach a fixed relative error, from `stokes converge` CSVs.
+
+For every docs/results/<scene>/convergence.csv given, the target is the largest final
+relMSE among the methods whose fitted slope (ln RMSE on ln spp, spp >= 4) is below -0.4,
+i.e. an error every unbiased method reached within its budget; each method's time to
+reach it is interpolated log-log between checkpoints ("never" if it did not within its
+budget). The region is the scene's first region of interest, else the whole image.
+Prints one Markdown table per scene.
+
+    python3 benches/time_to_error.py docs/results/*/convergence.csv
+"""
+import csv, math, os, sys
+from collections import defaultdict
+
+
+def slope(pts):
+    pts = [(math.log(s), math.log(e)) for s, _, e in pts if s >= 4 and e > 0]
+    if len(pts) < 2:
+        return float("nan")
+    n = len(pts)
+    mx = sum(p[0] for p in pts) / n
+    my = sum(p[1] for p in pts) / n
+    sxx = sum((p[0] - mx) ** 2 for p in pts)
+    return sum((p[0] - mx) * (p[1] - my) for p in pts) / sxx
+
+
+def time_to(pts, target):
+    prev = None
+    for spp, sec, err in pts:
+        if err <= target:
+            if prev is None or prev[2] <= 0 or err <= 0 or prev[1] <= 0:
+                return sec
+            # log-log interpolation between the two checkpoints
+            f = (math.log(prev[2]) - math.log(target)) / (math.log(prev[2]) - math.log(err))
+            return math.exp(math.log(prev[1]) + f * (math.log(sec) - math.log(prev[1])))
+        prev = (spp, sec, err)
+    return None
+
+
+def main(paths):
+    for path in paths:
+        rows = list(csv.DictReader(open(path)))
+        regions = [r["region"] for r in rows if r["region"] != "image"]
+        region = regions[0] if regions else "image"
+        curves = defaultdict(list)
+        for r in rows:
+            if r["region"] == region:
+                curves[r["method"]].append((int(r["spp"]), float(r["seconds"]), float(r["relmse"])))
+        rmse_curves = defaultdict(list)
+        for r in rows:
+            if r["region"] == region:
+                rmse_curves[r["method"]].append((int(r["spp"]), float(r["seconds"]), float(r["rmse"])))
+        slopes = {m: slope(c) for m, c in rmse_curves.items()}
+        unbiased = [m for m in curves if slopes[m] < -0.4]
+        target = max(curves[m][-1][2] for m in unbiased)
+        scene = os.path.basename(os.path.dirname(path))
+        print(f"\n**{scene}** (region `{region}`; target relMSE {target:.3g})\n")
+        print("| method | slope | final spp | final relMSE | seconds to target |")
+        print("| --- | --- | --- | --- | --- |")
+        for m, c in sorted(curves.items(), key=lambda kv: (time_to(kv[1], target) or 1e9)):
+            t = time_to(c, target)
+            print(f"| {m} | {slopes[m]:.2f} | {c[-1][0]} | {c[-1][2]:.3g} | "
+                  f"{'never (in ' + format(c[-1][1], '.0f') + ' s)' if t is None else format(t, '.2f')} |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
