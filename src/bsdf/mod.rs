@@ -255,23 +255,7 @@ impl Lobe {
                 })
             }
             Lobe::Dielectric(n_in, ext_ior) => {
-                let (n_in, ext_ior) = (*n_in, *ext_ior);
-                let cos_o = n.dot(wo);
-                let entering = cos_o > 0.0;
-                let ns = if entering { n } else { -n };
-                // Relative index n_t / n_i per lane.
-                let eta = if entering {
-                    n_in / ext_ior
-                } else {
-                    Vec4::splat(ext_ior) / n_in
-                };
-                let c = cos_o.abs();
-                let fr = Vec4::new(
-                    fresnel_dielectric(c, eta.x),
-                    fresnel_dielectric(c, eta.y),
-                    fresnel_dielectric(c, eta.z),
-                    fresnel_dielectric(c, eta.w),
-                );
+                let (ns, eta, fr) = dielectric_at(*n_in, *ext_ior, n, wo);
                 if uc < fr.x {
                     // Reflection: the same direction for every lane.
                     Some(BsdfSample {
@@ -298,6 +282,23 @@ impl Lobe {
     }
 }
 
+/// A dielectric seen along `wo` from the side of geometric normal `n`: the normal on
+/// `wo`'s side, the relative index n_t/n_i per lane and the per-lane Fresnel reflectance.
+#[inline]
+fn dielectric_at(n_in: Vec4, ext_ior: f32, n: Vec3, wo: Vec3) -> (Vec3, Vec4, Vec4) {
+    let cos_o = n.dot(wo);
+    let entering = cos_o > 0.0;
+    let ns = if entering { n } else { -n };
+    let eta = if entering {
+        n_in / ext_ior
+    } else {
+        Vec4::splat(ext_ior) / n_in
+    };
+    let c = cos_o.abs();
+    let fr = Vec4::from_array(std::array::from_fn(|k| fresnel_dielectric(c, eta[k])));
+    (ns, eta, fr)
+}
+
 impl Lobe {
     /// The refraction of every lane at a dielectric, for splitting a path whose lanes
     /// leave a dispersive interface in different directions. Per lane: its own refracted
@@ -309,16 +310,8 @@ impl Lobe {
         let Lobe::Dielectric(n_in, ext_ior) = *self else {
             return None;
         };
-        let cos_o = n.dot(wo);
-        let entering = cos_o > 0.0;
-        let ns = if entering { n } else { -n };
-        let eta = if entering {
-            n_in / ext_ior
-        } else {
-            Vec4::splat(ext_ior) / n_in
-        };
-        let c = cos_o.abs();
-        let t = Vec4::from_array(std::array::from_fn(|k| 1.0 - fresnel_dielectric(c, eta[k])));
+        let (ns, eta, fr) = dielectric_at(n_in, ext_ior, n, wo);
+        let t = Vec4::ONE - fr;
         let wi = std::array::from_fn(|k| refract(wo, ns, eta[k]));
         Some((wi, t / (eta * eta), t))
     }

@@ -13,7 +13,7 @@
 
 use super::{
     medium_after_crossing, russian_roulette, shadow_ray, shift_wavelengths, spawn_eps, Dispersion,
-    EmissionCache, MediaShadow, PathOptions, PathStats, PrevVertex, Shifting, Spectral,
+    EmissionCache, MediaShadow, PathOptions, PathStats, PrevVertex, ShiftModel, Shifting, Spectral,
 };
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Lobe, Material};
@@ -158,17 +158,9 @@ impl Path {
                     let wo = -ray.dir.normalize();
                     // The scattering coefficient σ̂_s enters through the shift sample
                     // (its value over its pdf is σ̂_s: elastic or fluorescent).
-                    if !shift_wavelengths(
-                        med,
-                        self.lanes,
-                        &mut self.lambda,
-                        &mut self.beta,
-                        &mut self.ratio,
-                        self.shift_rng.get(),
-                    ) {
+                    if !self.shift(med) {
                         return false;
                     }
-                    self.le_cache = EmissionCache::default();
                     let phase = med.phase();
                     // Next-event estimation through the medium, MIS against phase sampling.
                     let u_light = [
@@ -283,17 +275,9 @@ impl Path {
         };
         let mat = &scene.materials[mat_id as usize];
         if let Material::FluorescentDiffuse { reradiation } = mat {
-            if !shift_wavelengths(
-                reradiation.as_ref(),
-                self.lanes,
-                &mut self.lambda,
-                &mut self.beta,
-                &mut self.ratio,
-                self.shift_rng.get(),
-            ) {
+            if !self.shift(reradiation.as_ref()) {
                 return false;
             }
-            self.le_cache = EmissionCache::default();
         }
         let material = mat.at(self.lambda);
 
@@ -394,6 +378,23 @@ impl Path {
         let eps = spawn_eps(p);
         self.ray = Ray::new(p + ng * eps * ng.dot(bs.wi).signum(), bs.wi);
         true
+    }
+
+    /// A wavelength-shifting event (fluorescent surface or medium scattering): samples
+    /// the lanes' input wavelengths ([`shift_wavelengths`]) and forgets the cached
+    /// emission, whose wavelengths are gone. `false` ends the path.
+    #[inline]
+    fn shift(&mut self, model: &(impl ShiftModel + ?Sized)) -> bool {
+        let alive = shift_wavelengths(
+            model,
+            self.lanes,
+            &mut self.lambda,
+            &mut self.beta,
+            &mut self.ratio,
+            self.shift_rng.get(),
+        );
+        self.le_cache = EmissionCache::default();
+        alive
     }
 
     /// Splits the path at a dispersive refraction (the hero refracted and some live lane

@@ -288,31 +288,23 @@ fn render_pass_with(
             } else {
                 Grouping::Lockstep
             };
-            if scene.has_media() {
-                pass_packet::<true>(
-                    scene,
-                    opts,
-                    &path,
-                    grouping,
-                    film,
-                    first,
-                    count,
-                    inject_nonfinite_every,
-                    on_row,
-                )
+            // Scenes without media get a path loop with the medium code compiled out.
+            let pass = if scene.has_media() {
+                pass_packet::<true>
             } else {
-                pass_packet::<false>(
-                    scene,
-                    opts,
-                    &path,
-                    grouping,
-                    film,
-                    first,
-                    count,
-                    inject_nonfinite_every,
-                    on_row,
-                )
-            }
+                pass_packet::<false>
+            };
+            pass(
+                scene,
+                opts,
+                &path,
+                grouping,
+                film,
+                first,
+                count,
+                inject_nonfinite_every,
+                on_row,
+            )
         }
     };
     film.spp += count;
