@@ -653,6 +653,16 @@ fn cmd_info(path: &Path) -> Result<(), String> {
     } else {
         println!("media       none: no distance tracking");
     }
+    if scene.regions.is_empty() {
+        println!("regions     none (stokes converge measures the whole image)");
+    } else {
+        for r in &scene.regions {
+            println!(
+                "region      {}: pixels [{}, {}) x [{}, {}) of {}x{} (stokes converge reports it)",
+                r.name, r.min[0], r.max[0], r.min[1], r.max[1], r.resolution[0], r.resolution[1]
+            );
+        }
+    }
     Ok(())
 }
 

@@ -660,3 +660,16 @@ fn regions_scale_with_the_resolution() {
     assert_eq!(narrow.rect(4, 4), [1, 1, 2, 2]);
     assert_eq!(narrow.rect(16, 16), [7, 7, 8, 8]);
 }
+
+#[test]
+fn info_lists_the_regions_converge_reports() {
+    let scene = s(&root().join("scenes/fluorescent-slab.toml"));
+    let (stdout, _) = ok(&["info", &scene]);
+    assert!(
+        stdout.contains("region      slab: pixels [39, 217) x [39, 217) of 256x256"),
+        "{stdout}"
+    );
+    let cbox = s(&root().join("scenes/cornell-box.toml"));
+    let (stdout, _) = ok(&["info", &cbox]);
+    assert!(stdout.contains("regions     none"), "{stdout}");
+}
