@@ -423,14 +423,7 @@ pub fn run_method(
             budget.seconds
         ));
     }
-    let room = u32::MAX - budget.first_sample;
-    let max_spp = budget.max_spp.unwrap_or(room);
-    if max_spp == 0 || max_spp > room {
-        return Err(format!(
-            "samples [{}, {} + {max_spp}) do not fit the 32-bit sample index",
-            budget.first_sample, budget.first_sample
-        ));
-    }
+    let max_spp = crate::integrator::render::sample_count(budget.first_sample, budget.max_spp)?;
     let mut film = Film::try_new(opts.width, opts.height)?;
     let mut seconds = 0.0f64;
     let mut pass = 0u32;

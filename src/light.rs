@@ -153,6 +153,24 @@ impl Lights {
         self.triangles.is_empty()
     }
 
+    /// Samples a point on a light for next-event estimation at `p`: the point, the unit
+    /// direction `wi` to it and the sample's pdf in solid angle at `p`; `None` if no
+    /// light is sampled, the point is `p` itself or the light faces away.
+    #[inline]
+    pub fn sample_towards(&self, p: Vec3, u: [f32; 3]) -> Option<(LightSample, Vec3, f32)> {
+        let ls = self.sample(u)?;
+        let to = ls.p - p;
+        let d2 = to.length_squared();
+        let d = d2.sqrt();
+        let wi = to / d;
+        let cos_l = ls.n.dot(-wi);
+        if d > 0.0 && self.emitters[ls.emitter as usize].emits_towards(cos_l) {
+            Some((ls, wi, ls.pdf_area * d2 / cos_l.abs()))
+        } else {
+            None
+        }
+    }
+
     /// Samples a point on a light from three uniforms.
     #[inline]
     pub fn sample(&self, u: [f32; 3]) -> Option<LightSample> {

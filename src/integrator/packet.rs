@@ -17,10 +17,6 @@ use crate::accel::{Coherence, Hit, RayHit4};
 use crate::scene::Scene;
 use glam::Vec4;
 
-/// Whether the shadow rays of the first bounce (from a quad's camera hits) are traced
-/// with the coherent flag.
-const COHERENT_FIRST_SHADOWS: bool = false;
-
 /// An empty lane of a packet.
 const NONE: u32 = u32::MAX;
 
@@ -95,16 +91,7 @@ impl Wavefront {
             self.active.push(NONE);
         }
         let accel = &scene.accel;
-        let mut bounce = 0u32;
         while !self.active.is_empty() {
-            // Shadow rays from the camera hits of a quad start close together and end on
-            // the same light: coherent. After that, paths have scattered.
-            let shadow_coherence = if bounce == 0 && COHERENT_FIRST_SHADOWS {
-                Coherence::Coherent
-            } else {
-                Coherence::Incoherent
-            };
-            bounce += 1;
             // Trace this bounce's rays, four per query.
             self.hits.clear();
             self.hits.resize(self.active.len(), None);
@@ -180,7 +167,8 @@ impl Wavefront {
                     packet.set_ray(k, &s.ray);
                     mask[k] = true;
                 }
-                accel.occluded4(&mut packet, mask, shadow_coherence);
+                // Incoherent even from a quad's camera hits: each lane has its own light point.
+                accel.occluded4(&mut packet, mask, Coherence::Incoherent);
                 self.lanes_total += 4;
                 self.lanes_used += group.len() as u64;
                 for (k, (i, s)) in group.iter().enumerate() {

@@ -168,31 +168,23 @@ impl Path {
                         self.rng.next_f32(),
                         self.rng.next_f32(),
                     ];
-                    if let Some(ls) = lights.sample(u_light) {
-                        let to = ls.p - p;
-                        let d2 = to.length_squared();
-                        let dist = d2.sqrt();
-                        let wi = to / dist;
-                        let cos_l = ls.n.dot(-wi);
-                        if dist > 0.0 && lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
-                            let le = self.le_cache.get(ls.emitter, self.lambda, lights);
-                            let f = phase.eval_dirs(wo, wi);
-                            let pdf_dir = phase.pdf(wo, wi);
-                            let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
-                            let p_light = ls.pdf_area * d2 / cos_l.abs();
-                            stats.rays += 1;
-                            *shadow = Some(ShadowQuery {
-                                ray: sray,
-                                contribution: self.beta * le * f,
-                                media: Some(MediaShadow::new(
-                                    Some(m),
-                                    self.lambda,
-                                    self.ratio,
-                                    p_light,
-                                    Vec4::splat(pdf_dir),
-                                )),
-                            });
-                        }
+                    if let Some((ls, wi, p_light)) = lights.sample_towards(p, u_light) {
+                        let le = self.le_cache.get(ls.emitter, self.lambda, lights);
+                        let f = phase.eval_dirs(wo, wi);
+                        let pdf_dir = phase.pdf(wo, wi);
+                        let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
+                        stats.rays += 1;
+                        *shadow = Some(ShadowQuery {
+                            ray: sray,
+                            contribution: self.beta * le * f,
+                            media: Some(MediaShadow::new(
+                                Some(m),
+                                self.lambda,
+                                self.ratio,
+                                p_light,
+                                Vec4::splat(pdf_dir),
+                            )),
+                        });
                     }
                     let (wi, pdf_dir) = phase.sample(wo, self.rng.next_2d());
                     if pdf_dir <= 0.0 {
@@ -288,47 +280,38 @@ impl Path {
             self.rng.next_f32(),
         ];
         if !material.is_specular() {
-            if let Some(ls) = lights.sample(u_light) {
-                let to = ls.p - p;
-                let d2 = to.length_squared();
-                let d = d2.sqrt();
-                let wi = to / d;
-                let cos_l = ls.n.dot(-wi);
-                if d > 0.0 && lights.emitters[ls.emitter as usize].emits_towards(cos_l) {
-                    let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi);
-                    if f_cos != Vec4::ZERO {
-                        let le = self.le_cache.get(ls.emitter, self.lambda, lights);
-                        let p_light = ls.pdf_area * d2 / cos_l.abs();
-                        let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
-                        stats.rays += 1;
-                        *shadow = Some(if MEDIA {
-                            // Leaving the surface towards wi: which medium is the shadow ray in?
-                            let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
-                                self.medium
-                            } else {
-                                medium_after_crossing(scene, hit.geom_id, ng, wi)
-                            };
-                            ShadowQuery {
-                                ray: sray,
-                                contribution: self.beta * f_cos * le,
-                                media: Some(MediaShadow::new(
-                                    m_out,
-                                    self.lambda,
-                                    self.ratio,
-                                    p_light,
-                                    pdf_bsdf,
-                                )),
-                            }
+            if let Some((ls, wi, p_light)) = lights.sample_towards(p, u_light) {
+                let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi);
+                if f_cos != Vec4::ZERO {
+                    let le = self.le_cache.get(ls.emitter, self.lambda, lights);
+                    let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
+                    stats.rays += 1;
+                    *shadow = Some(if MEDIA {
+                        // Leaving the surface towards wi: which medium is the shadow ray in?
+                        let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
+                            self.medium
                         } else {
-                            let denom =
-                                (self.ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();
-                            ShadowQuery {
-                                ray: sray,
-                                contribution: self.beta * f_cos * le / denom,
-                                media: None,
-                            }
-                        });
-                    }
+                            medium_after_crossing(scene, hit.geom_id, ng, wi)
+                        };
+                        ShadowQuery {
+                            ray: sray,
+                            contribution: self.beta * f_cos * le,
+                            media: Some(MediaShadow::new(
+                                m_out,
+                                self.lambda,
+                                self.ratio,
+                                p_light,
+                                pdf_bsdf,
+                            )),
+                        }
+                    } else {
+                        let denom = (self.ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();
+                        ShadowQuery {
+                            ray: sray,
+                            contribution: self.beta * f_cos * le / denom,
+                            media: None,
+                        }
+                    });
                 }
             }
         }

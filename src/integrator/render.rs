@@ -533,6 +533,20 @@ pub struct ProgressiveResult {
     pub stopped: Stopped,
 }
 
+/// How many samples per pixel a render starting at sample index `first` may draw:
+/// `max_spp`, or as many as the 32-bit sample index allows; an error if that is none or
+/// `max_spp` overflows the index.
+pub fn sample_count(first: u32, max_spp: Option<u32>) -> Result<u32, String> {
+    let room = u32::MAX - first;
+    let n = max_spp.unwrap_or(room);
+    if n == 0 || n > room {
+        return Err(format!(
+            "samples [{first}, {first} + {n}) do not fit the 32-bit sample index"
+        ));
+    }
+    Ok(n)
+}
+
 /// Renders passes of `prog.batch` samples per pixel (samples `first_sample`, … in order,
 /// so the film equals that of one [`render_pass`] over the same range) until
 /// `prog.max_spp`, the time budget or `prog.stop`. `opts.spp` is not used. `on_pass` is
@@ -558,15 +572,7 @@ pub fn render_progressive(
             return Err(format!("expected a positive time budget, found {t}"));
         }
     }
-    // The last sample index must fit the u32 sample counter.
-    let room = u32::MAX - prog.first_sample;
-    let max_spp = prog.max_spp.unwrap_or(room);
-    if max_spp == 0 || max_spp > room {
-        return Err(format!(
-            "samples [{}, {} + {max_spp}) do not fit the 32-bit sample index",
-            prog.first_sample, prog.first_sample
-        ));
-    }
+    let max_spp = sample_count(prog.first_sample, prog.max_spp)?;
     let batch = prog.batch.max(1);
     let pool = crate::accel::thread_pool(opts.threads)
         .map_err(|e| format!("cannot start threads: {e}"))?;
