@@ -1,5 +1,5 @@
 # The two commands the README opens with, plus a few conveniences.
-.PHONY: render test deps bench-rays fmt lint
+.PHONY: render test test-isas deps bench-rays fmt lint
 
 deps:
 	./scripts/install-deps.sh
@@ -11,6 +11,10 @@ render: deps
 # The whole test suite (unit, statistical and image tests).
 test: deps
 	cargo test --release --workspace
+
+# The Embree-facing tests under every Embree kernel this CPU has below its best (CI runs it).
+test-isas: deps
+	./scripts/test-isas.sh
 
 bench-rays: deps
 	cargo run --release -- bench rays scenes/sphere-100k.toml

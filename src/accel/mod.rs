@@ -59,6 +59,87 @@ impl fmt::Display for EmbreeError {
 
 impl std::error::Error for EmbreeError {}
 
+/// The environment variable whose value [`Device::new`] hands to `rtcNewDevice`.
+pub const CONFIG_VARIABLE: &str = "STOKES_EMBREE_CONFIG";
+
+/// The kernel names that both Embree 3 and 4 accept for `isa=` and `max_isa=`, with the
+/// CPU feature each needs. Embree 3.13 silently falls back to SSE2 for any other name (and
+/// an `isa=` the CPU lacks would select kernels that crash on their first instruction),
+/// so these keys are checked here rather than left to Embree.
+pub const ISAS: [(&str, &str); 5] = [
+    ("sse2", "sse2"),
+    ("sse4.2", "sse4.2"),
+    ("avx", "avx"),
+    ("avx2", "avx2"),
+    ("avx512", "avx512f"),
+];
+
+/// Whether this CPU can run Embree's kernels for `isa` (one of [`ISAS`]).
+pub fn cpu_has_isa(isa: &str) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        match isa {
+            "sse2" => std::arch::is_x86_feature_detected!("sse2"),
+            "sse4.2" => std::arch::is_x86_feature_detected!("sse4.2"),
+            "avx" => std::arch::is_x86_feature_detected!("avx"),
+            "avx2" => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            }
+            "avx512" => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512cd")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+            }
+            _ => false,
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = isa;
+        false
+    }
+}
+
+/// Checks the `isa=` and `max_isa=` entries of an Embree configuration string (entries are
+/// separated by commas or white space): the name must be one of [`ISAS`], and for `isa=`
+/// the CPU must have it. Everything else is left to Embree's own parser.
+pub fn check_config(config: &str) -> Result<(), EmbreeError> {
+    let invalid = |message: String| EmbreeError {
+        code: sys::RTC_ERROR_INVALID_ARGUMENT,
+        message,
+    };
+    for entry in config
+        .split([',', ' ', '\t', '\n'])
+        .filter(|e| !e.is_empty())
+    {
+        let Some((key, value)) = entry.split_once('=') else {
+            continue;
+        };
+        let (key, value) = (key.trim(), value.trim());
+        if key != "isa" && key != "max_isa" {
+            continue;
+        }
+        let names: Vec<&str> = ISAS.iter().map(|(n, _)| *n).collect();
+        if !names.contains(&value) {
+            return Err(invalid(format!(
+                "{key}: expected one of {}, found {value:?}",
+                names.join(", ")
+            )));
+        }
+        if key == "isa" && !cpu_has_isa(value) {
+            let have: Vec<&str> = names.iter().copied().filter(|n| cpu_has_isa(n)).collect();
+            return Err(invalid(format!(
+                "isa: this CPU cannot run {value} kernels (it has {})",
+                have.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Where the error callback leaves the first error since the last check.
 type ErrorSlot = Mutex<Option<EmbreeError>>;
 
@@ -106,9 +187,18 @@ pub struct Device {
 }
 
 impl Device {
-    /// A device with Embree's default configuration.
+    /// A device with the configuration in the environment variable
+    /// [`CONFIG_VARIABLE`] (`STOKES_EMBREE_CONFIG`, e.g. `isa=sse4.2` to force a kernel),
+    /// or Embree's default configuration when it is unset or empty. A value that Embree or
+    /// [`check_config`] rejects is an error naming the variable.
     pub fn new() -> Result<Device, EmbreeError> {
-        Device::with_config("")
+        let config = std::env::var(CONFIG_VARIABLE).unwrap_or_default();
+        let named = |e: EmbreeError| EmbreeError {
+            code: e.code,
+            message: format!("{CONFIG_VARIABLE}={config:?}: {}", e.message),
+        };
+        check_config(&config).map_err(named)?;
+        Device::with_config(&config).map_err(named)
     }
 
     /// A device with an Embree configuration string (for example `"threads=1"`).

@@ -150,7 +150,10 @@ impl Scene {
             }
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        // Not the scene file's error: the message names the environment variable.
+        let device = accel::Device::new().map_err(|e| e.to_string())?;
         Builder {
+            device,
             file: path,
             base,
             desc: &desc,
@@ -222,6 +225,7 @@ impl Scene {
 }
 
 struct Builder<'a> {
+    device: accel::Device,
     file: &'a Path,
     base: PathBuf,
     desc: &'a SceneDesc,
@@ -309,8 +313,7 @@ impl Builder<'_> {
             material_names.push(name.clone());
         }
 
-        let device = accel::Device::new().map_err(|e| e.to_string())?;
-        let mut builder = device.scene_builder().map_err(|e| e.to_string())?;
+        let mut builder = self.device.scene_builder().map_err(|e| e.to_string())?;
         let mut geometries = Vec::new();
         let mut lights = Lights::default();
         let mut lo = Vec3::splat(f32::INFINITY);
