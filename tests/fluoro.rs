@@ -6,12 +6,11 @@
 //! sampler.
 
 mod common;
-use common::stats::gamma_q;
+use common::stats::{chi_square, Rng};
 use std::path::{Path, PathBuf};
 
 use glam::Vec4;
 use stokes::fluoro::{ImportReport, Reradiation};
-use stokes::sampler::Pcg32;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
 
 /// Significance of every chi-square test here.
@@ -20,60 +19,16 @@ const ALPHA: f64 = 1e-3;
 const OUTPUTS: [f32; 4] = [480.0, 550.0, 600.0, 650.0];
 
 // ---------------------------------------------------------------------------------------
-// Chi-square machinery (no dependencies).
+// Chi-square against bin probabilities.
 
-#[test]
-fn gamma_q_matches_known_chi_square_quantiles() {
-    // P(χ²_k > x) at the tabulated 0.999 quantiles.
-    for (k, x) in [(1.0, 10.828), (2.0, 13.816), (5.0, 20.515), (30.0, 59.703)] {
-        let p = gamma_q(k / 2.0, x / 2.0);
-        assert!((p - 1e-3).abs() < 2e-6, "k = {k}: {p}");
-    }
-    // Both branches of gamma_q around a + 1.
-    assert!((gamma_q(3.0, 1.0) - 0.919_698_602_928_605_6).abs() < 1e-12);
-    assert!((gamma_q(3.0, 7.0) - 0.029_636_163_880_521_67).abs() < 1e-12);
-}
-
-/// Pearson's chi-square of `observed` counts against bin probabilities `expected` (summing
-/// to 1), after merging neighbouring bins whose expected count is below 5. Returns the
-/// p-value; 0 when a bin of probability 0 was hit.
+/// The chi-square p-value of `observed` counts against bin probabilities `expected`
+/// (summing to 1); 0 when a bin of probability 0 was hit.
 fn chi_square_p(observed: &[u64], expected: &[f64]) -> f64 {
-    assert_eq!(observed.len(), expected.len());
-    let total: u64 = observed.iter().sum();
-    let n = total as f64;
+    let n = observed.iter().sum::<u64>() as f64;
     let psum: f64 = expected.iter().sum();
     assert!((psum - 1.0).abs() < 1e-4, "bin probabilities sum to {psum}");
-    let mut groups: Vec<(f64, f64)> = Vec::new(); // (expected count, observed)
-    let (mut e_acc, mut o_acc) = (0.0, 0.0);
-    for (&o, &p) in observed.iter().zip(expected) {
-        if p <= 0.0 {
-            if o > 0 {
-                return 0.0;
-            }
-            continue;
-        }
-        e_acc += p * n;
-        o_acc += o as f64;
-        if e_acc >= 5.0 {
-            groups.push((e_acc, o_acc));
-            e_acc = 0.0;
-            o_acc = 0.0;
-        }
-    }
-    if e_acc > 0.0 || o_acc > 0.0 {
-        match groups.last_mut() {
-            Some(g) => {
-                g.0 += e_acc;
-                g.1 += o_acc;
-            }
-            None => groups.push((e_acc, o_acc)),
-        }
-    }
-    if groups.len() < 2 {
-        return 1.0;
-    }
-    let stat: f64 = groups.iter().map(|&(e, o)| (o - e) * (o - e) / e).sum();
-    gamma_q((groups.len() - 1) as f64 / 2.0, stat / 2.0)
+    let counts: Vec<f64> = expected.iter().map(|p| p * n).collect();
+    chi_square(observed, &counts).p_value
 }
 
 // ---------------------------------------------------------------------------------------
@@ -166,10 +121,10 @@ fn histogram(
     lambda_o: f32,
     n: usize,
     seed: u64,
-    mut sample: impl FnMut(&mut Pcg32) -> Option<(bool, f32)>,
+    mut sample: impl FnMut(&mut Rng) -> Option<(bool, f32)>,
 ) -> Vec<u64> {
     let mut counts = vec![0u64; r.cells() + 1];
-    let mut rng = Pcg32::new(seed, lambda_o.to_bits() as u64);
+    let mut rng = Rng::new(seed, lambda_o.to_bits() as u64);
     for _ in 0..n {
         let (kept, li) = sample(&mut rng).expect("sampling failed");
         counts[bin_of(r, kept, li)] += 1;
@@ -212,7 +167,7 @@ fn measured_shift_sampling_matches_density_chi_square() {
 fn doubled_cell_sampler(
     r: &Reradiation,
     lambda_o: f32,
-) -> impl FnMut(&mut Pcg32) -> Option<(bool, f32)> + '_ {
+) -> impl FnMut(&mut Rng) -> Option<(bool, f32)> + '_ {
     let o = r.cell(lambda_o).unwrap();
     let mut w: Vec<f64> = (0..o)
         .map(|k| {
@@ -226,7 +181,7 @@ fn doubled_cell_sampler(
     w[heaviest] *= 2.0;
     let total: f64 = w.iter().sum();
     let p_keep = r.pdf_input(lambda_o, lambda_o, true);
-    move |rng: &mut Pcg32| {
+    move |rng: &mut Rng| {
         if rng.next_f32() < p_keep {
             return Some((true, lambda_o));
         }
@@ -287,7 +242,7 @@ fn pdf_input_sums_to_one_with_the_keep_probability() {
 #[test]
 fn value_over_pdf_is_d_plus_sigma_se_for_every_sample() {
     for (name, r) in sources() {
-        let mut rng = Pcg32::new(3, 4);
+        let mut rng = Rng::new(3, 4);
         let mut shifted = 0;
         for _ in 0..200_000 {
             let lo = LAMBDA_MIN + rng.next_f32() * (LAMBDA_MAX - LAMBDA_MIN);
@@ -321,7 +276,7 @@ fn value_over_pdf_is_d_plus_sigma_se_for_every_sample() {
 /// sampler).
 fn within_cell_p(r: &Reradiation, lambda_o: f32, warp: impl Fn(f32) -> f32) -> f64 {
     let mut counts = vec![0u64; 10];
-    let mut rng = Pcg32::new(41, 7);
+    let mut rng = Rng::new(41, 7);
     let mut n = 0;
     while n < 100_000 {
         let s = r
@@ -424,7 +379,7 @@ fn diagonal_only_never_shifts() {
     let r = Reradiation::diagonal_only(d.clone());
     assert!(!r.is_fluorescent());
     assert!(r.energy_gain_rows().is_empty());
-    let mut rng = Pcg32::new(1, 2);
+    let mut rng = Rng::new(1, 2);
     for _ in 0..100_000 {
         let lo = LAMBDA_MIN + rng.next_f32() * (LAMBDA_MAX - LAMBDA_MIN);
         let s = r.sample_input(lo, rng.next_f32(), rng.next_f32()).unwrap();

@@ -7,106 +7,21 @@
 //! negative controls check that the same machinery rejects a wrong sampler.
 
 mod common;
-use common::stats::{chi2_p_value, gamma_q};
+use common::stats::{chi_square, ChiSquare, Rng};
 use glam::{Vec3, Vec4};
 use stokes::medium::tracking::{
     self, fluo_aware_norm, pdf_collision, pdf_collision_lane, prob_surface, prob_surface_lane,
     sample_distance, transmittance, DistanceSample, Tracking,
 };
 use stokes::medium::{HenyeyGreenstein, Homogeneous};
-use stokes::sampler::Pcg32;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
 
 const ALPHA: f64 = 1e-3;
 const METHODS: [Tracking; 3] = [Tracking::Classic, Tracking::Max, Tracking::FluoAware];
 
 // ---------------------------------------------------------------------------------------
-// Chi-square machinery
+// Quadrature
 // ---------------------------------------------------------------------------------------
-
-#[test]
-fn chi2_p_value_matches_known_quantiles() {
-    // 0.999 quantiles of χ² (tables): dof 1, 2, 10, 63.
-    for (dof, q) in [(1, 10.828), (2, 13.816), (10, 29.588), (63, 103.442)] {
-        let p = chi2_p_value(q, dof);
-        assert!((p - 1e-3).abs() < 2e-6, "dof {dof}: {p}");
-    }
-    // dof 2 is exponential: Q(1, x) = e^{−x}; both branches of gamma_q.
-    for x in [0.3, 1.9, 7.0, 40.0] {
-        assert!((gamma_q(1.0, x) - (-x).exp()).abs() < 1e-12);
-    }
-    assert!((chi2_p_value(3.0, 5) - 0.699_985_836).abs() < 1e-8);
-}
-
-/// The result of a chi-square goodness-of-fit test.
-#[derive(Debug)]
-struct Chi2 {
-    stat: f64,
-    dof: usize,
-    p: f64,
-}
-
-/// Chi-square test of `observed` counts against `expected` counts (same total). Bins whose
-/// expectation is below 5 are pooled into one bin (added to the smallest regular bin when
-/// the pool itself stays below 5); an observation in a pool of expectation 0 is an
-/// impossible event and gives p = 0.
-fn chi2_test(observed: &[u64], expected: &[f64]) -> Chi2 {
-    assert_eq!(observed.len(), expected.len());
-    let impossible = observed
-        .iter()
-        .zip(expected)
-        .any(|(&o, &e)| o > 0 && e <= 0.0);
-    let mut bins: Vec<(f64, f64)> = Vec::new();
-    let (mut pool_o, mut pool_e) = (0.0, 0.0);
-    for (&o, &e) in observed.iter().zip(expected) {
-        if e < 5.0 {
-            pool_o += o as f64;
-            pool_e += e;
-        } else {
-            bins.push((o as f64, e));
-        }
-    }
-    if pool_e >= 5.0 {
-        bins.push((pool_o, pool_e));
-    } else if pool_e > 0.0 || pool_o > 0.0 {
-        match bins
-            .iter_mut()
-            .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap())
-        {
-            Some(b) => {
-                b.0 += pool_o;
-                b.1 += pool_e;
-            }
-            None => bins.push((pool_o, pool_e)),
-        }
-    }
-    if impossible || bins.iter().any(|&(o, e)| e <= 0.0 && o > 0.0) {
-        return Chi2 {
-            stat: f64::INFINITY,
-            dof: bins.len().saturating_sub(1),
-            p: 0.0,
-        };
-    }
-    let stat: f64 = bins.iter().map(|&(o, e)| (o - e) * (o - e) / e).sum();
-    let dof = bins.len().saturating_sub(1);
-    let p = if dof == 0 {
-        1.0
-    } else {
-        chi2_p_value(stat, dof)
-    };
-    Chi2 { stat, dof, p }
-}
-
-#[test]
-fn chi2_test_rejects_and_accepts() {
-    let e = vec![1000.0; 10];
-    let fair = [990, 1012, 1003, 985, 1021, 998, 1007, 979, 1010, 995];
-    assert!(chi2_test(&fair, &e).p > 0.1);
-    let skewed = [1100, 1100, 1100, 1100, 1100, 900, 900, 900, 900, 900];
-    assert!(chi2_test(&skewed, &e).p < 1e-6);
-    // An observation where nothing is expected.
-    assert_eq!(chi2_test(&[10, 0, 1], &[11.0, 0.0, 0.0]).p, 0.0);
-}
 
 /// Simpson's rule with `n` (even) intervals.
 fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
@@ -125,7 +40,7 @@ fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
 const HG_G: [f32; 4] = [-0.7, 0.0, 0.3, 0.9];
 
 /// A fixed, non-axis-aligned unit vector.
-fn some_wo(rng: &mut Pcg32) -> Vec3 {
+fn some_wo(rng: &mut Rng) -> Vec3 {
     loop {
         let v = Vec3::new(
             2.0 * rng.next_f32() - 1.0,
@@ -174,9 +89,9 @@ fn local_angles(wo: Vec3, wi: Vec3) -> (f32, f32) {
 
 /// Chi-square of HG sampling over (cos θ, φ) bins for `sampler_g` against the density of
 /// `pdf_g` (equal except for the negative control).
-fn hg_chi2(sampler_g: f32, pdf_g: f32, seed: u64) -> Chi2 {
+fn hg_chi2(sampler_g: f32, pdf_g: f32, seed: u64) -> ChiSquare {
     let (n_cos, n_phi, n) = (16usize, 8usize, 200_000usize);
-    let mut rng = Pcg32::new(seed, 1);
+    let mut rng = Rng::new(seed, 1);
     let wo = some_wo(&mut rng);
     let sampler = HenyeyGreenstein::new(sampler_g);
     let reference = HenyeyGreenstein::new(pdf_g);
@@ -199,7 +114,7 @@ fn hg_chi2(sampler_g: f32, pdf_g: f32, seed: u64) -> Chi2 {
             expected[i * n_phi + j] = mass * n as f64;
         }
     }
-    chi2_test(&counts, &expected)
+    chi_square(&counts, &expected)
 }
 
 #[test]
@@ -208,21 +123,24 @@ fn hg_sampling_chi_square() {
         let r = hg_chi2(g, g, 100 + k as u64);
         println!(
             "HG g = {g}: χ² = {:.1}, dof {}, p = {:.3}",
-            r.stat, r.dof, r.p
+            r.statistic, r.dof, r.p_value
         );
-        assert!(r.p > ALPHA, "g = {g}: {r:?}");
+        assert!(r.p_value > ALPHA, "g = {g}: {r:?}");
     }
 }
 
 #[test]
 fn hg_chi_square_rejects_a_wrong_g() {
     let r = hg_chi2(0.35, 0.3, 7);
-    assert!(r.p < ALPHA, "a sampler with g = 0.35 passed as 0.3: {r:?}");
+    assert!(
+        r.p_value < ALPHA,
+        "a sampler with g = 0.35 passed as 0.3: {r:?}"
+    );
 }
 
 #[test]
 fn hg_sample_pdf_matches_pdf_and_eval() {
-    let mut rng = Pcg32::new(3, 3);
+    let mut rng = Rng::new(3, 3);
     for g in [-0.99f32, -0.7, 0.0, 0.3, 0.9, 0.99] {
         let p = HenyeyGreenstein::new(g);
         let mut worst = 0.0f32;
@@ -252,7 +170,7 @@ fn hg_sample_pdf_matches_pdf_and_eval() {
 #[test]
 fn hg_g_is_the_mean_cosine_between_propagation_directions() {
     // E[cos θ] = g with cos θ = −wo·wi: g > 0 scatters forward.
-    let mut rng = Pcg32::new(11, 5);
+    let mut rng = Rng::new(11, 5);
     for g in HG_G {
         let p = HenyeyGreenstein::new(g);
         let n = 100_000;
@@ -340,14 +258,14 @@ fn distance_chi2(
     reference: (f32, f32),
     d: f32,
     seed: u64,
-) -> Chi2 {
+) -> ChiSquare {
     let n = 200_000usize;
     let (st, ss) = reference;
     let edges = bin_edges(decay_rate(method, st, ss), d as f64, 24);
     let k = edges.len() - 1;
     let mut counts = vec![0u64; k + 1];
     let (vt, vs) = lanes(sampler.0, sampler.1);
-    let mut rng = Pcg32::new(seed, 17);
+    let mut rng = Rng::new(seed, 17);
     for _ in 0..n {
         match sample_distance(method, vt, vs, d, rng.next_f32()) {
             DistanceSample::Collision { t } => {
@@ -365,7 +283,7 @@ fn distance_chi2(
         .into_iter()
         .map(|p| p * n as f64)
         .collect();
-    chi2_test(&counts, &expected)
+    chi_square(&counts, &expected)
 }
 
 #[test]
@@ -378,11 +296,11 @@ fn distance_sampling_chi_square_all_methods() {
             println!(
                 "{:>10} {label:>18}: χ² = {:.1}, dof {}, p = {:.3}",
                 method.name(),
-                r.stat,
+                r.statistic,
                 r.dof,
-                r.p
+                r.p_value
             );
-            assert!(r.p > ALPHA, "{method:?}, {label}: {r:?}");
+            assert!(r.p_value > ALPHA, "{method:?}, {label}: {r:?}");
         }
     }
 }
@@ -413,12 +331,12 @@ fn distance_chi_square_rejects_wrong_coefficients() {
     // Negative controls: a sampler with a coefficient 10% off, tested against the right
     // density, must be rejected.
     let r = distance_chi2(Tracking::Classic, (1.1, 0.5), (1.0, 0.5), 2.0, 5);
-    assert!(r.p < ALPHA, "classic with σt × 1.1 passed: {r:?}");
+    assert!(r.p_value < ALPHA, "classic with σt × 1.1 passed: {r:?}");
     let r = distance_chi2(Tracking::FluoAware, (0.5, 2.2), (0.5, 2.0), 3.0, 6);
-    assert!(r.p < ALPHA, "fluo-aware with σs × 1.1 passed: {r:?}");
+    assert!(r.p_value < ALPHA, "fluo-aware with σs × 1.1 passed: {r:?}");
     // Max sampled with σt instead of max(σs, σt) where σs > σt.
     let r = distance_chi2(Tracking::Max, (0.5, 0.0), (0.5, 2.0), 3.0, 8);
-    assert!(r.p < ALPHA, "max sampled with σt passed: {r:?}");
+    assert!(r.p_value < ALPHA, "max sampled with σt passed: {r:?}");
 }
 
 #[test]
@@ -438,7 +356,7 @@ fn distance_pdfs_integrate_to_one() {
 #[test]
 fn distance_pdfs_match_the_closed_forms() {
     // Independent f64 transcriptions of DESIGN.md §5 at random t.
-    let mut rng = Pcg32::new(21, 2);
+    let mut rng = Rng::new(21, 2);
     for (st, ss, d, label) in CASES {
         let (st64, ss64, d64) = (st as f64, ss as f64, d as f64);
         let mu = st64.max(ss64);
@@ -488,7 +406,7 @@ fn distance_pdfs_match_the_closed_forms() {
 
 #[test]
 fn fluo_aware_hero_weight_is_exactly_n() {
-    let mut rng = Pcg32::new(31, 4);
+    let mut rng = Rng::new(31, 4);
     let mut checked = 0;
     for (st, ss, d, label) in CASES {
         if ss == 0.0 {
@@ -556,7 +474,7 @@ fn slab_transmittance_and_classic_pass_rate() {
         );
     }
     // Under classic tracking the probability of passing the slab is its transmittance.
-    let mut rng = Pcg32::new(41, 6);
+    let mut rng = Rng::new(41, 6);
     for (st, ss) in [(0.7f32, 0.3f32), (0.7, 5.0), (2.0, 0.0)] {
         let (vt, vs) = lanes(st, ss);
         let n = 200_000;
@@ -747,7 +665,7 @@ fn medium_shift_sampling_chi_square_and_weight() {
     let m = dyed_medium();
     let cell = 10.0f32;
     let cells = ((LAMBDA_MAX - LAMBDA_MIN) / cell).ceil() as usize;
-    let mut rng = Pcg32::new(51, 8);
+    let mut rng = Rng::new(51, 8);
     for (idx, lambda_o) in [495.0f32, 533.0, 600.0, 635.0].into_iter().enumerate() {
         let ss_hat = m.sigma_s_hat(Vec4::splat(lambda_o)).x;
         assert!(ss_hat > 0.3, "σ̂_s({lambda_o}) = {ss_hat}");
@@ -789,12 +707,12 @@ fn medium_shift_sampling_chi_square_and_weight() {
         // Kept with probability σ_s/σ̂_s.
         assert!((expected[0] - 0.3 / ss_hat as f64).abs() < 1e-6);
         let expected: Vec<f64> = expected.iter().map(|p| p * n as f64).collect();
-        let r = chi2_test(&counts, &expected);
+        let r = chi_square(&counts, &expected);
         println!(
             "shift λo = {lambda_o}: χ² = {:.1}, dof {}, p = {:.3}",
-            r.stat, r.dof, r.p
+            r.statistic, r.dof, r.p_value
         );
-        assert!(r.p > ALPHA, "λo {lambda_o} (case {idx}): {r:?}");
+        assert!(r.p_value > ALPHA, "λo {lambda_o} (case {idx}): {r:?}");
     }
 }
 
@@ -824,7 +742,7 @@ const DETECTOR: (f32, f32) = (500.0, 650.0);
 /// (λo drawn uniformly). At a collision at t: weight T(λo, t)/p(t), a shift sample
 /// (value/pdf = σ̂_s(λo)), then the beam's radiance at λi after a depth t,
 /// e^{−σ̂_t(λi) t}. The slab's back face is black: the surface contributes 0.
-fn slab_sample(m: &Homogeneous, method: Tracking, rng: &mut Pcg32) -> f64 {
+fn slab_sample(m: &Homogeneous, method: Tracking, rng: &mut Rng) -> f64 {
     let lambda_o = DETECTOR.0 + (DETECTOR.1 - DETECTOR.0) * rng.next_f32();
     let l = Vec4::new(lambda_o, 0.0, 0.0, 0.0);
     let (st, ss) = (m.sigma_t_hat(l), m.sigma_s_hat(l));
@@ -883,7 +801,7 @@ fn single_scattering_in_a_fluorescent_slab_exposes_classic_bias() {
     let mut report = String::new();
     let mut z_of = [0.0f64; 3];
     for (i, method) in METHODS.into_iter().enumerate() {
-        let mut rng = Pcg32::new(61 + i as u64, 10);
+        let mut rng = Rng::new(61 + i as u64, 10);
         let (mut s, mut s2) = (0.0f64, 0.0f64);
         for _ in 0..n {
             let x = slab_sample(&m, method, &mut rng);

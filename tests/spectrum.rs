@@ -6,7 +6,7 @@
 //! and a failure means something.
 
 mod common;
-use common::stats::chi2_p_value;
+use common::stats::{chi_square, Rng};
 use std::path::PathBuf;
 
 use glam::{Vec3, Vec4};
@@ -22,25 +22,7 @@ const RANGE: f32 = LAMBDA_MAX - LAMBDA_MIN;
 const ALPHA: f64 = 1e-3;
 
 // ---------------------------------------------------------------------------------------
-// Small helpers: a PRNG and the chi-square distribution (no dependencies).
-
-/// SplitMix64: tiny, fast, and good enough for test sampling.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1) with 24 random bits (every value exactly representable).
-    fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-}
+// Chi-square against the uniform distribution.
 
 /// Chi-square p-value of `samples` against the uniform distribution on [MIN, MAX),
 /// with `bins` equal bins.
@@ -54,23 +36,8 @@ fn uniformity_p_value(samples: &[f32], bins: usize) -> f64 {
         let b = (((l - LAMBDA_MIN) / RANGE) * bins as f32) as usize;
         counts[b.min(bins - 1)] += 1;
     }
-    let expected = samples.len() as f64 / bins as f64;
-    let statistic: f64 = counts
-        .iter()
-        .map(|&c| (c as f64 - expected).powi(2) / expected)
-        .sum();
-    chi2_p_value(statistic, bins - 1)
-}
-
-#[test]
-fn chi_square_helper_matches_known_quantiles() {
-    // Tabulated chi-square quantiles: P(χ²₁ > 3.841) = 0.05, P(χ²₄₆ > 81.40) ≈ 1e-3,
-    // P(χ²₁₀ > 23.21) = 0.01.
-    assert!((chi2_p_value(3.841_459, 1) - 0.05).abs() < 1e-5);
-    assert!((chi2_p_value(23.209_25, 10) - 0.01).abs() < 1e-5);
-    let p46 = chi2_p_value(81.400, 46);
-    assert!((p46 - 1e-3).abs() < 5e-5, "{p46}");
-    assert!((chi2_p_value(46.0, 46) - 0.472).abs() < 0.01);
+    let expected = vec![samples.len() as f64 / bins as f64; bins];
+    chi_square(&counts, &expected).p_value
 }
 
 // ---------------------------------------------------------------------------------------
@@ -80,7 +47,7 @@ const BINS: usize = 47; // 10 nm each
 const SAMPLES: usize = 100_000;
 
 fn hwss_lanes(seed: u64) -> [Vec<f32>; 4] {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed, 0);
     let mut lanes: [Vec<f32>; 4] = Default::default();
     for _ in 0..SAMPLES {
         let w = SampledWavelengths::sample_hwss(rng.next_f32());
@@ -111,7 +78,7 @@ fn hwss_every_lane_is_marginally_uniform() {
 
 #[test]
 fn hwss_lanes_are_spaced_by_a_quarter_range() {
-    let mut rng = Rng(0x5EED_0003);
+    let mut rng = Rng::new(0x5EED_0003, 0);
     for _ in 0..10_000 {
         let l = SampledWavelengths::sample_hwss(rng.next_f32()).lambda;
         for k in 1..4 {
@@ -129,7 +96,7 @@ fn hwss_lanes_are_spaced_by_a_quarter_range() {
 
 #[test]
 fn mono_hero_is_uniform() {
-    let mut rng = Rng(0x5EED_0004);
+    let mut rng = Rng::new(0x5EED_0004, 0);
     let samples: Vec<f32> = (0..SAMPLES)
         .map(|_| SampledWavelengths::sample_mono(rng.next_f32()).lambda.x)
         .collect();
@@ -141,7 +108,7 @@ fn mono_hero_is_uniform() {
 #[test]
 fn chi_square_rejects_a_skewed_sampler() {
     // The same test must fail for a sampler that is only slightly off (density ∝ 1 + 0.1u).
-    let mut rng = Rng(0x5EED_0005);
+    let mut rng = Rng::new(0x5EED_0005, 0);
     let samples: Vec<f32> = (0..SAMPLES)
         .map(|_| {
             let u = rng.next_f32();
@@ -286,7 +253,7 @@ fn reflectance_xyz_is_reflected_radiance() {
 
 /// Mean and standard error of the estimator over `n` paths, per XYZ component.
 fn estimate_xyz(n: usize, seed: u64, sample: impl Fn(&mut Rng) -> (Vec4, Vec4)) -> (Vec3, Vec3) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed, 0);
     let (mut sum, mut sum_sq) = ([0.0f64; 3], [0.0f64; 3]);
     for _ in 0..n {
         let (lambda, value) = sample(&mut rng);

@@ -141,6 +141,13 @@ pub fn sample_cosine(n: Vec3, u: [f32; 2]) -> Vec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
 }
 
+/// The solid-angle density with which [`sample_cosine`] produces a direction at cosine
+/// `cos_theta` to its axis: cos θ / π in the hemisphere, 0 below it.
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) / PI
+}
+
 /// Unpolarised Fresnel reflectance of a smooth dielectric; `cos_i` > 0 on the incident
 /// side, `eta` = n_transmitted / n_incident.
 #[inline]
@@ -218,8 +225,9 @@ impl Lobe {
                 if co * ci <= 0.0 {
                     return (Vec4::ZERO, Vec4::ZERO);
                 }
-                let c = ci.abs() / PI;
-                (*albedo * c, Vec4::splat(c))
+                // Lambertian: f·cos θ = albedo·cos θ/π, exactly the sampling density.
+                let pdf = cosine_hemisphere_pdf(ci.abs());
+                (*albedo * pdf, Vec4::splat(pdf))
             }
             _ => (Vec4::ZERO, Vec4::ZERO),
         }
@@ -237,7 +245,7 @@ impl Lobe {
                 if c <= 0.0 {
                     return None;
                 }
-                let pdf = c / PI;
+                let pdf = cosine_hemisphere_pdf(c);
                 Some(BsdfSample {
                     wi,
                     f_cos: *albedo * pdf,
