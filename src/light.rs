@@ -31,8 +31,9 @@ impl Emitter {
         self.radiance.eval4(lambda) * self.scale
     }
 
-    /// Mean radiance over the renderer's wavelength range (for power-based selection).
-    fn mean_radiance(&self) -> f32 {
+    /// Mean radiance (× scale) over the renderer's wavelength range, on a 1 nm grid (for
+    /// power-based selection).
+    pub fn mean_radiance(&self) -> f32 {
         let n = 470;
         let sum: f32 = (0..n)
             .map(|i| {
@@ -90,27 +91,32 @@ pub struct Lights {
 }
 
 impl Lights {
-    /// Adds an emitter with its triangles; `geom_id` is the Embree id of the mesh.
+    /// Adds an emitter with its triangles; `geom_id` is the Embree id of the mesh. Returns
+    /// their total area (in f64: the sum may exceed f32). Fails, adding nothing, if a
+    /// triangle's area is not finite in 32-bit floats (its density 1/area would be 0 and
+    /// its selection weight infinite).
     pub fn add(
         &mut self,
         geom_id: u32,
         emitter: Emitter,
         positions: &[[f32; 3]],
         indices: &[[u32; 3]],
-    ) {
+    ) -> Result<f64, String> {
         let e = self.emitters.len() as u32;
-        self.emitters.push(emitter);
-        let g = geom_id as usize;
-        if self.first_triangle.len() <= g {
-            self.first_triangle.resize(g + 1, None);
-        }
-        self.first_triangle[g] = Some(self.triangles.len() as u32);
-        for t in indices {
+        let mut triangles = Vec::with_capacity(indices.len());
+        for (k, t) in indices.iter().enumerate() {
             let [p0, p1, p2] = t.map(|i| Vec3::from(positions[i as usize]));
             let (e1, e2) = (p1 - p0, p2 - p0);
             let c = e1.cross(e2);
             let area = 0.5 * c.length();
-            self.triangles.push(LightTriangle {
+            if !area.is_finite() {
+                return Err(format!(
+                    "expected emitting triangles whose area is finite in 32-bit floats, found triangle {k} of area {area} (edges {:.3e} and {:.3e} long)",
+                    e1.as_dvec3().length(),
+                    e2.as_dvec3().length()
+                ));
+            }
+            triangles.push(LightTriangle {
                 p0,
                 e1,
                 e2,
@@ -119,6 +125,15 @@ impl Lights {
                 emitter: e,
             });
         }
+        self.emitters.push(emitter);
+        let g = geom_id as usize;
+        if self.first_triangle.len() <= g {
+            self.first_triangle.resize(g + 1, None);
+        }
+        self.first_triangle[g] = Some(self.triangles.len() as u32);
+        let area = triangles.iter().map(|t| f64::from(t.area)).sum();
+        self.triangles.extend(triangles);
+        Ok(area)
     }
 
     /// Builds the selection table; call once after the last [`Lights::add`].
@@ -217,5 +232,33 @@ impl Lights {
             .copied()
             .flatten()
             .map(|first| self.triangles[first as usize].emitter)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn emitter() -> Emitter {
+        Emitter {
+            radiance: Spectrum::Constant(1.0),
+            scale: 1.0,
+            two_sided: false,
+        }
+    }
+
+    #[test]
+    fn an_emitting_triangle_of_infinite_area_is_refused_and_nothing_added() {
+        let mut lights = Lights::default();
+        let quad = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 2.0]];
+        let area = lights.add(0, emitter(), &quad, &[[0, 1, 2]]).unwrap();
+        assert_eq!(area, 2.0);
+        let huge = [[0.0, 0.0, 0.0], [1e20, 0.0, 0.0], [0.0, 0.0, 1e20]];
+        let err = lights.add(1, emitter(), &huge, &[[0, 1, 2]]).unwrap_err();
+        assert!(err.contains("triangle 0 of area inf"), "{err}");
+        assert_eq!((lights.emitters.len(), lights.triangles.len()), (1, 1));
+        assert_eq!(lights.emitter_index_of(1), None);
+        lights.finish();
+        assert_eq!(lights.pdf_area(0, 0), 0.5);
     }
 }

@@ -397,6 +397,19 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
         .output
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("{}.exr", scene.name())));
+    let png = out.with_extension("png");
+    let variance = sibling(&out, ".variance.exr");
+    let mut outputs = vec![("-o", out.as_path())];
+    if a.png {
+        outputs.push(("--png", png.as_path()));
+    }
+    if a.variance {
+        outputs.push(("--variance", variance.as_path()));
+    }
+    if let Some(p) = &a.stats_json {
+        outputs.push(("--stats-json", p.as_path()));
+    }
+    stokes::output::check_outputs(&outputs)?;
 
     let bar = if std::io::stderr().is_terminal() {
         let b = match max_spp {
@@ -494,16 +507,10 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
     let mean = film.mean();
     stokes::output::write_exr(&out, width, height, &mean, &meta)?;
     if a.png {
-        stokes::output::write_png(&out.with_extension("png"), width, height, &mean)?;
+        stokes::output::write_png(&png, width, height, &mean)?;
     }
     if a.variance {
-        stokes::output::write_exr(
-            &sibling(&out, ".variance.exr"),
-            width,
-            height,
-            &film.variance_of_mean(),
-            &meta,
-        )?;
+        stokes::output::write_exr(&variance, width, height, &film.variance_of_mean(), &meta)?;
     }
     if result.stats.nonfinite > 0 {
         eprintln!(
@@ -570,6 +577,12 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode, String> {
 }
 
 fn cmd_merge(a: &MergeArgs) -> Result<(), String> {
+    let variance = stokes::merge::variance_path(&a.output);
+    let mut outputs = vec![("-o", a.output.as_path())];
+    if a.variance {
+        outputs.push(("--variance", variance.as_path()));
+    }
+    stokes::output::check_outputs(&outputs)?;
     let report = stokes::merge::merge(&a.inputs, &a.output, a.variance)?;
     eprintln!(
         "merged {} renders: {} spp (samples {}) → {}{}",
@@ -888,6 +901,7 @@ fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode, String> {
     let (width, height) = (opts.width, opts.height);
     let out = &a.output;
     let var_path = merge::variance_path(out);
+    stokes::output::check_outputs(&[("-o", out), ("-o", &var_path)])?;
     let tracking = opts.path_options(&scene).tracking;
     let settings: Vec<(&str, String)> = merge::SETTINGS
         .iter()
@@ -1097,6 +1111,15 @@ and on stdout a table: per method, the fitted log-log slope of RMSE against spp 
 checkpoints with spp >= 4; -0.5 for an unbiased method), the final errors and the
 seconds to reach the worst final relMSE of all methods.";
 
+/// The files `stokes converge` writes in its --out directory.
+const CONVERGE_FILES: [&str; 5] = [
+    "convergence.csv",
+    "error-vs-time.svg",
+    "error-vs-time.png",
+    "error-vs-spp.svg",
+    "error-vs-spp.png",
+];
+
 #[derive(Args, Clone)]
 struct ConvergeArgs {
     /// The scene file (TOML).
@@ -1232,6 +1255,9 @@ fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/converge").join(scene.name()));
+    let files: Vec<PathBuf> = CONVERGE_FILES.iter().map(|f| out_dir.join(f)).collect();
+    let outputs: Vec<(&str, &Path)> = files.iter().map(|f| ("--out", f.as_path())).collect();
+    stokes::output::check_outputs(&outputs)?;
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("--out {}: cannot create directory: {e}", out_dir.display()))?;
     let pool = stokes::accel::thread_pool(base.threads)

@@ -44,6 +44,99 @@ pub fn write_atomically(
     }
 }
 
+/// Checks, before any work, that every output can be written: `outputs` pairs the
+/// command-line option that names a file with its path. Each must be a file name (not a
+/// directory), distinct from the others, in a directory that exists and takes a new file
+/// or can be created (the nearest existing ancestor must be a writable directory). A
+/// render that would fail at its last step fails here instead, in milliseconds.
+///
+/// The check leaves nothing behind: writability is tested with a probe file that is
+/// removed at once, and missing directories are not created (the writes do that).
+pub fn check_outputs(outputs: &[(&str, &Path)]) -> Result<(), String> {
+    for (i, &(option, path)) in outputs.iter().enumerate() {
+        check_output(option, path)?;
+        if let Some(&(first, _)) = outputs[..i].iter().find(|(_, p)| same_file_name(p, path)) {
+            return Err(format!(
+                "{option} {}: expected a file of its own, found the file {first} writes",
+                path.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// [`check_outputs`] for one path.
+fn check_output(option: &str, path: &Path) -> Result<(), String> {
+    let named = format!("{option} {}", path.display());
+    if path.file_name().is_none() || path.as_os_str().to_string_lossy().ends_with('/') {
+        return Err(format!(
+            "{named}: expected a file name, found a path without one"
+        ));
+    }
+    if path.is_dir() {
+        return Err(format!(
+            "{named}: expected a file to write, found a directory"
+        ));
+    }
+    // The nearest ancestor that exists: the directory to write in, or the one in which
+    // the missing directories will be created.
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let mut dir = parent.unwrap_or(Path::new("."));
+    while !dir.exists() {
+        match dir.parent().filter(|p| !p.as_os_str().is_empty()) {
+            Some(p) => dir = p,
+            None => {
+                dir = Path::new(".");
+                break;
+            }
+        }
+    }
+    if !dir.is_dir() {
+        return Err(format!(
+            "{named}: expected a directory at {}, found a file",
+            dir.display()
+        ));
+    }
+    let probe = dir.join(format!(".stokes-probe.{}.tmp", std::process::id()));
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        // Ours from an earlier check of this process: the directory took it then.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+        Err(e) => Err(format!(
+            "{named}: expected a directory that takes new files, found {} refusing one: {e}",
+            dir.display()
+        )),
+    }
+}
+
+/// Whether two output paths name the same file (as far as can be told before either
+/// exists: the same file name in the same existing directory, or equal paths).
+fn same_file_name(a: &Path, b: &Path) -> bool {
+    let key = |p: &Path| -> PathBuf {
+        match (p.parent(), p.file_name()) {
+            (Some(dir), Some(name)) => {
+                let dir = if dir.as_os_str().is_empty() {
+                    Path::new(".")
+                } else {
+                    dir
+                };
+                dir.canonicalize()
+                    .map(|d| d.join(name))
+                    .unwrap_or_else(|_| p.components().collect())
+            }
+            _ => p.components().collect(),
+        }
+    };
+    key(a) == key(b)
+}
+
 /// Writes a float RGB EXR; `metadata` goes into the header as text attributes.
 pub fn write_exr(
     path: &Path,
@@ -163,6 +256,45 @@ mod tests {
             std::fs::read_dir(&dir).unwrap().count() == 1,
             "temporary file left behind"
         );
+    }
+
+    #[test]
+    fn output_checks_name_the_option_and_leave_nothing_behind() {
+        let dir = std::env::temp_dir().join(format!("stokes-check-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        std::fs::write(dir.join("file"), b"x").unwrap();
+        let ok = dir.join("new/deeper/img.exr");
+        assert_eq!(
+            check_outputs(&[("-o", &ok), ("--png", &dir.join("a.png"))]),
+            Ok(())
+        );
+        let bad: [(&[(&str, &Path)], &str); 5] = [
+            (&[("-o", &dir.join("sub"))], "-o "),
+            (&[("-o", &dir.join("file/img.exr"))], "found a file"),
+            (&[("--png", &dir.join("file/new/img.png"))], "--png"),
+            (&[("-o", &ok), ("--stats-json", &ok)], "the file -o writes"),
+            (
+                &[
+                    ("-o", &dir.join("x.exr")),
+                    ("--png", &dir.join("sub/../x.exr")),
+                ],
+                "--png",
+            ),
+        ];
+        for (outputs, fragment) in bad {
+            let e = check_outputs(outputs).unwrap_err();
+            assert!(e.contains(fragment), "{outputs:?}: {e}");
+        }
+        // Nothing created: no directories, no probe files.
+        let mut left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["file", "sub"]);
+        assert_eq!(std::fs::read_dir(dir.join("sub")).unwrap().count(), 0);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -210,3 +210,199 @@ fn bad_command_line_values() {
     assert!(!ok, "{err}");
     assert!(err.contains("--res"), "{err}");
 }
+
+/// The files left in `dir` (recursively), for "nothing was written" checks.
+fn files_in(dir: &std::path::Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(files_in(&p));
+        } else {
+            out.push(s(&p));
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Every output path (image, PNG, variance, stats JSON) is checked before rendering: a
+/// path that cannot be written fails at once, naming the option and the path, and
+/// nothing is written (no partial outputs, no probe files, no directories).
+#[test]
+fn unwritable_outputs_fail_before_rendering() {
+    let dir = scratch("outputs");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let sub = dir.join("a-directory");
+    std::fs::create_dir(&sub).unwrap();
+    let ok_out = dir.join("new/dirs/img.exr");
+    let (d, f) = (s(&sub), s(&scene));
+    let cases: Vec<(Vec<String>, [&str; 2])> = vec![
+        (vec!["-o".into(), d.clone()], ["-o", "found a directory"]),
+        (
+            vec!["-o".into(), format!("{d}/")],
+            ["-o", "expected a file name"],
+        ),
+        (
+            vec!["-o".into(), format!("{f}/img.exr")],
+            ["scene.toml, found a file", "-o"],
+        ),
+        (
+            vec!["-o".into(), s(&ok_out), "--stats-json".into(), d.clone()],
+            ["--stats-json", "found a directory"],
+        ),
+        (
+            vec!["-o".into(), s(&dir.join("x.png")), "--png".into()],
+            ["--png", "the file -o writes"],
+        ),
+        (
+            vec![
+                "-o".into(),
+                s(&ok_out),
+                "--stats-json".into(),
+                s(&dir.join("new/dirs/img.variance.exr")),
+                "--variance".into(),
+            ],
+            ["--stats-json", "the file --variance writes"],
+        ),
+    ];
+    for (args, fragments) in cases {
+        let (ok, _, err) = run(stokes()
+            .args(["render", &f, "--spp", "1", "--res", "8x8"])
+            .args(&args));
+        assert!(!ok, "{args:?}: rendered");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(!err.contains("pass 1"), "{args:?}: rendered first: {err}");
+        for fr in fragments {
+            assert!(err.contains(fr), "{args:?}: lacks {fr:?}: {err}");
+        }
+        assert_eq!(files_in(&dir), vec![f.clone()], "{args:?}: left files");
+        assert!(!dir.join("new").exists(), "{args:?}: created directories");
+    }
+    // The same outputs in a writable place are written (directories created).
+    let (ok, _, err) = run(stokes()
+        .args([
+            "render",
+            &f,
+            "--spp",
+            "1",
+            "--res",
+            "8x8",
+            "-o",
+            &s(&ok_out),
+        ])
+        .args([
+            "--png",
+            "--variance",
+            "--stats-json",
+            &s(&dir.join("s.json")),
+        ]));
+    assert!(ok, "{err}");
+    for p in [
+        "new/dirs/img.exr",
+        "new/dirs/img.png",
+        "new/dirs/img.variance.exr",
+        "s.json",
+    ] {
+        assert!(dir.join(p).exists(), "{p} missing");
+    }
+}
+
+/// `stokes reference -o`, `stokes converge --out` and `stokes merge -o` check their
+/// outputs before the work too.
+#[test]
+fn unwritable_outputs_of_reference_converge_and_merge() {
+    let dir = scratch("outputs2");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let f = s(&scene);
+    let reference = dir.join("ref.exr");
+    let (ok, _, err) = run(stokes().args(["reference", &f, "--spp", "2", "-o", &s(&reference)]));
+    assert!(ok, "{err}");
+    let sub = dir.join("taken");
+    std::fs::create_dir_all(sub.join("convergence.csv")).unwrap();
+    std::fs::create_dir_all(sub.join("m.variance.exr")).unwrap();
+    let before = files_in(&dir);
+    let r = s(&reference);
+    let cases: Vec<(Vec<String>, [&str; 2])> = vec![
+        (
+            vec![
+                "reference".into(),
+                f.clone(),
+                "--spp".into(),
+                "1".into(),
+                "-o".into(),
+                s(&sub),
+            ],
+            ["-o", "found a directory"],
+        ),
+        (
+            vec![
+                "reference".into(),
+                f.clone(),
+                "--spp".into(),
+                "1".into(),
+                "-o".into(),
+                format!("{f}/r.exr"),
+            ],
+            ["-o", "found a file"],
+        ),
+        (
+            vec![
+                "converge".into(),
+                f.clone(),
+                "--reference".into(),
+                r.clone(),
+                "--budget".into(),
+                "0.1".into(),
+                "--out".into(),
+                s(&sub),
+            ],
+            [
+                "--out",
+                "convergence.csv: expected a file to write, found a directory",
+            ],
+        ),
+        (
+            vec![
+                "converge".into(),
+                f.clone(),
+                "--reference".into(),
+                r.clone(),
+                "--budget".into(),
+                "0.1".into(),
+                "--out".into(),
+                f.clone(),
+            ],
+            ["--out", "found a file"],
+        ),
+        (
+            vec!["merge".into(), r.clone(), "-o".into(), s(&sub)],
+            ["-o", "found a directory"],
+        ),
+        (
+            vec![
+                "merge".into(),
+                r.clone(),
+                "-o".into(),
+                s(&sub.join("m.exr")),
+                "--variance".into(),
+            ],
+            ["--variance", "m.variance.exr: expected a file to write"],
+        ),
+    ];
+    for (args, fragments) in cases {
+        let (ok, _, err) = run(stokes().args(&args));
+        assert!(!ok, "{args:?}: succeeded");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            !err.contains("pass 1") && !err.contains("[1/"),
+            "{args:?}: worked first: {err}"
+        );
+        for fr in fragments {
+            assert!(err.contains(fr), "{args:?}: lacks {fr:?}: {err}");
+        }
+        assert_eq!(files_in(&dir), before, "{args:?}: left files");
+    }
+}

@@ -999,3 +999,156 @@ fn seed_offset_draws_other_samples() {
     ]));
     assert!(!ok && err.contains("--seed-offset"), "{err}");
 }
+
+// ---------------------------------------------------------------------------------------
+// Load-time limits and warnings (issue 12)
+
+/// A light in front of a fluorescent slab, seen from both sides (the camera sees its
+/// back), with every quantity at the loader's limits:
+/// radiance × scale = 1e30 and σ_a, σ_s, σ_dye = 1e30 per scene unit each.
+const AT_THE_LIMITS: &str = r#"
+[camera]
+position = [0, 0, -4]
+look_at = [0, 0, 0]
+fov = 35
+resolution = [8, 8]
+
+[media.m]
+sigma_a = 1e30
+sigma_s = 1e30
+dye = { absorption = { wavelengths = [400, 440, 480], values = [0, 1, 0] }, concentration = 1e30, emission = { wavelengths = [490, 525, 600], values = [0, 1, 0] }, quantum_yield = 0.95 }
+
+[materials.floor]
+type = "diffuse"
+reflectance = 0.5
+
+[[shapes]]
+type = "box"
+min = [-1, -1, -0.4]
+max = [1, 1, 0.4]
+interior = "m"
+
+[[shapes]]
+type = "quad"
+origin = [-3, -1.5, -3]
+edge_u = [0, 0, 6]
+edge_v = [6, 0, 0]
+material = "floor"
+
+[[shapes]]
+type = "quad"
+origin = [-1, 0.3, -1.5]
+edge_u = [2, 0, 0]
+edge_v = [0, 0.4, 0]
+emission = { radiance = 1e20, scale = 1e10, two_sided = true }
+"#;
+
+/// What the loader accepts renders without a NaN or infinite sample in every method: the
+/// limits (`MAX_RADIANCE`, `MAX_COEFFICIENT` in `scene`) leave the estimate headroom.
+#[test]
+fn renders_at_the_load_limits_stay_finite() {
+    use stokes::integrator::{render::RenderOptions, Rays, Shifting, Spectral};
+    use stokes::medium::Tracking;
+    let opts = |tracking, spectral, rays| RenderOptions {
+        width: 8,
+        height: 8,
+        spp: 8,
+        seed: 3,
+        max_depth: -1,
+        spectral,
+        shifting: Shifting::Independent,
+        tracking: Some(tracking),
+        threads: 2,
+        rays,
+        dispersion: Default::default(),
+    };
+    for tracking in [Tracking::Classic, Tracking::Max, Tracking::FluoAware] {
+        for spectral in [Spectral::Hwss, Spectral::Mono] {
+            for rays in [Rays::Single, Rays::Packet] {
+                // render_opts asserts that no sample was dropped.
+                let film = render_opts(
+                    &mut scene_from(AT_THE_LIMITS),
+                    &opts(tracking, spectral, rays),
+                );
+                let mean = film.mean();
+                assert!(mean.iter().flatten().any(|&v| v > 0.0), "a black image");
+            }
+        }
+    }
+    // Must-fail control: past the limit (forced after loading) samples overflow.
+    let mut scene = scene_from(AT_THE_LIMITS);
+    scene.lights.emitters[0].scale *= 1e8;
+    let o = opts(Tracking::FluoAware, Spectral::Hwss, Rays::Single);
+    let r = stokes::integrator::render::render(&scene, &o, &|| {}).unwrap();
+    assert!(
+        r.stats.nonfinite > 0,
+        "radiance 1e38 gave no non-finite sample"
+    );
+    // And the loader refuses the same scene written with that scale.
+    let past = AT_THE_LIMITS.replace("scale = 1e10", "scale = 1e16");
+    let e = stokes::scene::Scene::from_str(&past, Path::new("past.toml"))
+        .err()
+        .unwrap();
+    assert!(
+        e.contains("shapes[2].emission.scale: expected radiance × scale ≤ 1e30"),
+        "{e}"
+    );
+}
+
+/// `[spectra]` entries may name each other in any order (resolved in dependency order);
+/// a name that is no entry is a CIE illuminant.
+#[test]
+fn named_spectra_resolve_in_dependency_order() {
+    let text = AT_THE_LIMITS
+        .replace(
+            "[materials.floor]\ntype = \"diffuse\"\nreflectance = 0.5",
+            "[spectra]\nz = \"y\"\ny = \"x\"\nx = 0.25\nlamp = \"sun\"\nsun = \"d65\"\n\n[materials.floor]\ntype = \"diffuse\"\nreflectance = \"z\"",
+        )
+        .replace("radiance = 1e20, scale = 1e10", "radiance = \"lamp\"");
+    let scene = scene_from(&text);
+    match &scene.materials[0] {
+        stokes::bsdf::Material::Diffuse { reflectance } => {
+            assert_eq!(reflectance.eval(500.0), 0.25)
+        }
+        _ => panic!("not diffuse"),
+    }
+    assert_eq!(
+        scene.lights.emitters[0].radiance,
+        stokes::spectrum::illuminant("D65").unwrap()
+    );
+}
+
+/// Lights that add nothing, or a line too narrow to be sampled, are warned about; a
+/// plain scene has no warnings.
+#[test]
+fn warnings_for_lights_that_show_nothing() {
+    let light = "emission = { radiance = 1e20, scale = 1e10, two_sided = true }";
+    let warnings = |emission: &str| scene_from(&AT_THE_LIMITS.replace(light, emission)).warnings;
+    assert_eq!(
+        warnings("emission = { radiance = 1.0 }"),
+        Vec::<String>::new()
+    );
+    let cases = [
+        (
+            "emission = { radiance = 0.0 }",
+            "shapes[2].emission: radiance × scale is 0 over 360–830 nm",
+        ),
+        (
+            "emission = { radiance = 1.0, scale = 0 }",
+            "the light is black",
+        ),
+        (
+            "emission = { radiance = { blackbody = 100 } }",
+            "the light is black",
+        ),
+        (
+            "emission = { radiance = { narrow_band = 550, fwhm = 0.01 } }",
+            "shapes[2].emission.radiance: a band 1e-2 nm wide (fwhm)",
+        ),
+        ("material = \"floor\"", "shapes: no shape has an `emission`"),
+    ];
+    for (emission, fragment) in cases {
+        let w = warnings(emission);
+        assert!(w.len() == 1 && w[0].contains(fragment), "{emission}: {w:?}");
+    }
+}

@@ -101,6 +101,56 @@ pub struct ShiftSample {
     pub value: f32,
 }
 
+/// The least share of a dye's absorption that must lie below some of its emission.
+const MIN_REEMITTABLE: f64 = 1e-3;
+
+/// Checks that a dye can re-emit: that it absorbs somewhere, and that at least
+/// [`MIN_REEMITTABLE`] of its absorption ∫A lies in cells with emission above them (only
+/// there does F re-emit, with a Stokes shift). `a`, `e` and `w` are A, E and the width per
+/// cell, `tail[i]` the emission above cell i.
+///
+/// A dye that cannot re-emit is an error, not a warning: its keys would change nothing
+/// visible (on a surface the dye only adds F; in a medium it would be a plain absorber,
+/// which `sigma_a` says directly), and such input is almost always a mistake (bands
+/// swapped, or one given in µm), like an emission that is zero everywhere. The share is
+/// measured rather than required to be non-zero because Gaussian bands have tails: a
+/// dye absorbing at 600 nm and emitting at 450 nm overlaps in tails of 10⁻⁴ and would
+/// render as if it were not there. A quantum yield of 0 is accepted: it says so on
+/// purpose.
+fn check_stokes_shift(
+    grid: &Reradiation,
+    a: &[f64],
+    e: &[f64],
+    w: &[f64],
+    tail: &[f64],
+) -> Result<(), String> {
+    let Some(first_absorbed) = a.iter().position(|&v| v > 0.0) else {
+        return Err(format!(
+            "dye absorption is zero at every cell centre over {LAMBDA_MIN}–{LAMBDA_MAX} nm: the dye would do nothing"
+        ));
+    };
+    let absorbed: f64 = a.iter().zip(w).map(|(a, w)| a * w).sum();
+    let reemittable: f64 = (0..a.len())
+        .filter(|&i| tail[i] > 0.0)
+        .map(|i| a[i] * w[i])
+        .sum();
+    let share = reemittable / absorbed;
+    if share < MIN_REEMITTABLE {
+        let last_emitted = e.iter().rposition(|&v| v > 0.0).unwrap_or(0);
+        let found = if share == 0.0 {
+            "none".to_string()
+        } else {
+            format!("only {share:.1e}")
+        };
+        return Err(format!(
+            "expected emission at longer wavelengths than absorption (a Stokes shift), found absorption from {} nm and emission up to {} nm, so that {found} of the absorbed light can be re-emitted: the dye would do nothing visible",
+            grid.cell_bounds(first_absorbed).0,
+            grid.cell_bounds(last_emitted).1
+        ));
+    }
+    Ok(())
+}
+
 /// The diagonal clamped to be non-negative (NaN gives 0).
 #[inline]
 fn nonneg(v: f32) -> f32 {
@@ -230,6 +280,7 @@ impl Reradiation {
         for i in (0..n.saturating_sub(1)).rev() {
             tail[i] = tail[i + 1] + e[i + 1] * w[i + 1];
         }
+        check_stokes_shift(&grid, &a, &e, &w, &tail)?;
         let phi = f64::from(quantum_yield);
         let mut f = vec![0.0f32; n * n];
         for i in 0..n {
@@ -513,6 +564,59 @@ mod tests {
         assert_traits::<Reradiation>();
         assert_traits::<ShiftSample>();
         assert_traits::<ImportReport>();
+    }
+
+    /// A dye must be able to re-emit: some absorption, and at least
+    /// [`MIN_REEMITTABLE`] of it below some emission.
+    #[test]
+    fn a_dye_that_cannot_re_emit_is_rejected() {
+        let band = |c: f32, w: f32| Spectrum::narrow_band(c, w).unwrap();
+        let boxed = |a: f32, b: f32| {
+            Spectrum::Tabulated(
+                Tabulated::new(vec![a - 1e-3, a, b, b + 1e-3], vec![0.0, 0.5, 0.5, 0.0]).unwrap(),
+            )
+        };
+        let d = Spectrum::Constant(0.3);
+        let dye =
+            |a: &Spectrum, e: &Spectrum, qy: f32| Reradiation::from_dye(d.clone(), a, e, qy, 2.0);
+        // Accepted: emission above absorption, overlapping bands, a yield of 0 (on purpose).
+        assert!(dye(&boxed(420.0, 480.0), &boxed(500.0, 560.0), 0.9)
+            .unwrap()
+            .is_fluorescent());
+        assert!(dye(&band(500.0, 40.0), &band(520.0, 40.0), 0.9).is_ok());
+        assert!(dye(&boxed(420.0, 480.0), &boxed(500.0, 560.0), 0.0).is_ok());
+        // Rejected: emission entirely below absorption, Gaussian bands overlapping only in
+        // their far tails, no absorption in range.
+        let cases = [
+            (
+                boxed(550.0, 650.0),
+                boxed(400.0, 500.0),
+                "none of the absorbed light",
+            ),
+            (band(600.0, 20.0).scaled(10.0), band(450.0, 20.0), "only "),
+            (band(0.44, 0.02), band(520.0, 30.0), "absorption is zero"),
+        ];
+        for (a, e, fragment) in cases {
+            let Err(err) = dye(&a, &e, 0.9) else {
+                panic!("accepted {a:?} / {e:?}")
+            };
+            assert!(err.contains(fragment), "{a:?} / {e:?}: {err}");
+        }
+        // The share is measured on the absorption: two absorbing cells (of some fifty)
+        // below the emission's end pass; absorption of 10⁻⁴ of the band's height there
+        // does not.
+        let sliver = Spectrum::Tabulated(
+            Tabulated::new(vec![498.0, 499.0, 500.0, 600.0], vec![0.0, 0.5, 0.5, 0.5]).unwrap(),
+        );
+        assert!(dye(&sliver, &boxed(400.0, 503.0), 0.9).is_ok());
+        let hair = Spectrum::Tabulated(
+            Tabulated::new(
+                vec![498.0, 500.0, 501.9, 502.0, 700.0],
+                vec![0.0, 5e-5, 5e-5, 0.5, 0.5],
+            )
+            .unwrap(),
+        );
+        assert!(dye(&hair, &boxed(400.0, 502.0), 0.9).is_err());
     }
 
     /// A 3-cell matrix whose grid sticks out of the range on both sides.

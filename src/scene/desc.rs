@@ -16,6 +16,7 @@
 //! [spectra]                     # named spectra, used by name below
 //! white = { csv = "data/cbox-reflectance.csv", column = "white" }
 //! lamp = { wavelengths = [400, 500, 600, 700], values = [0, 8, 15.6, 18.4] }
+//! sun = "lamp"                  # another entry (in any order) or an illuminant
 //!
 //! [materials.white]
 //! type = "diffuse"
@@ -45,7 +46,8 @@ pub struct SceneDesc {
     /// Render defaults.
     #[serde(default)]
     pub render: RenderDesc,
-    /// Named spectra.
+    /// Named spectra. An entry may name another entry (`sun = "lamp"`, resolved whatever
+    /// the order; a cycle is an error) or a CIE illuminant.
     #[serde(default)]
     pub spectra: BTreeMap<String, SpectrumDesc>,
     /// Named materials.
@@ -378,7 +380,8 @@ pub struct MediumDesc {
 pub struct MediumDyeDesc {
     /// Absorption spectrum (per scene unit at concentration 1).
     pub absorption: SpectrumDesc,
-    /// Multiplies `absorption` (default 1).
+    /// Multiplies `absorption` (default 1; positive, and concentration × absorption at
+    /// most 1e30 per scene unit).
     pub concentration: Option<f32>,
     /// Shape of the emission spectrum (normalised by the renderer).
     pub emission: SpectrumDesc,
@@ -395,7 +398,8 @@ pub struct MediumDyeDesc {
 pub struct EmissionDesc {
     /// Spectral radiance.
     pub radiance: SpectrumDesc,
-    /// Multiplier (default 1).
+    /// Multiplier (default 1); radiance × scale may be at most 1e30 and the light's power
+    /// must be finite in 32-bit floats.
     pub scale: Option<f32>,
     /// Emit from both sides (default false: only the front).
     #[serde(default)]

@@ -233,6 +233,46 @@ struct Builder<'a> {
     warnings: Vec<String>,
 }
 
+/// The largest spectral radiance × scale of an emitter (W·sr⁻¹·m⁻²·nm⁻¹): some 25 orders
+/// of magnitude above the Sun's (about 2·10⁴) and 8 below `f32::MAX`, the headroom a
+/// path's estimate needs (radiance over the wavelength pdf, times colour matching and
+/// throughput) to stay finite in 32-bit floats.
+const MAX_RADIANCE: f32 = 1e30;
+
+/// The largest coefficient σ_a, σ_s, σ_t or σ_dye of a medium (per scene unit): a mean
+/// free path of 10⁻³⁰ scene units is opaque at any scale 32-bit positions resolve, and
+/// beyond it sums of coefficients (σ̂_t = σ_a + σ_s + σ_dye) and σ × distance overflow.
+const MAX_COEFFICIENT: f32 = 1e30;
+
+/// The power of one emitter (π × sides × area × radiance integrated over the rendered
+/// range, with `area` its total area), which must be finite in 32-bit floats: the light
+/// selection table holds it (divided by π × sides × 470 nm) in them.
+fn check_power(key: &str, e: &Emitter, area: f64) -> Result<f64, String> {
+    let sides = if e.two_sided { 2.0 } else { 1.0 };
+    let power = std::f64::consts::PI
+        * sides
+        * area
+        * f64::from(e.mean_radiance())
+        * f64::from(spectrum::LAMBDA_RANGE);
+    if power > f64::from(f32::MAX) {
+        return Err(format!(
+            "{key}.emission: expected a light whose power (π × area × radiance over {}–{} nm) is finite in 32-bit floats, found {power:.3e} (area {area:.3e})",
+            spectrum::LAMBDA_MIN,
+            spectrum::LAMBDA_MAX
+        ));
+    }
+    Ok(power)
+}
+
+/// The smallest fwhm (nm) of a narrow band in `s`, if it is one (possibly scaled).
+fn narrowest_band(s: &Spectrum) -> Option<f32> {
+    match s {
+        Spectrum::NarrowBand { fwhm, .. } => Some(*fwhm),
+        Spectrum::Scaled(inner, _) => narrowest_band(inner),
+        _ => None,
+    }
+}
+
 fn check_vec(key: &str, v: [f32; 3]) -> Result<Vec3, String> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(Vec3::from(v))
@@ -254,10 +294,8 @@ impl Builder<'_> {
     fn build(mut self) -> Result<Scene, String> {
         let d = self.desc;
         // Named spectra first: materials and emitters refer to them.
-        for (name, s) in &d.spectra {
-            let key = format!("spectra.{name}");
-            let spec = self.spectrum(&key, s, None)?;
-            self.spectra.insert(name.clone(), spec);
+        for name in d.spectra.keys() {
+            self.named_spectrum(name)?;
         }
 
         let c = &d.camera;
@@ -316,6 +354,9 @@ impl Builder<'_> {
         let mut builder = self.device.scene_builder().map_err(|e| e.to_string())?;
         let mut geometries = Vec::new();
         let mut lights = Lights::default();
+        // Total power of the lights (W, for scene units of metres), for the check that
+        // their selection table stays finite.
+        let mut power = 0.0f64;
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
 
@@ -355,12 +396,14 @@ impl Builder<'_> {
                             "{key}.emission.scale: expected a non-negative number, found {scale}"
                         ));
                     }
+                    let radiance = self.spectrum(
+                        &format!("{key}.emission.radiance"),
+                        &e.radiance,
+                        Some(Range::NonNegative),
+                    )?;
+                    self.check_emitter(&key, &radiance, scale)?;
                     Some(Emitter {
-                        radiance: self.spectrum(
-                            &format!("{key}.emission.radiance"),
-                            &e.radiance,
-                            Some(Range::NonNegative),
-                        )?,
+                        radiance,
                         scale,
                         two_sided: e.two_sided,
                     })
@@ -376,6 +419,15 @@ impl Builder<'_> {
                 }
                 let t = check_vec(&format!("{key}.translate"), s.translate.unwrap_or([0.0; 3]))?;
                 mesh.transform(scale, t);
+                if let Some(v) = mesh
+                    .positions
+                    .iter()
+                    .find(|v| !v.iter().all(|x| x.is_finite()))
+                {
+                    return Err(format!(
+                        "{key}: expected a shape whose vertices are finite in 32-bit floats (after any `scale` and `translate`), found a vertex at {v:?}"
+                    ));
+                }
                 if s.flip {
                     mesh.flip();
                 }
@@ -390,7 +442,10 @@ impl Builder<'_> {
                     .attach_triangles(&mesh.positions, &mesh.indices)
                     .map_err(|e| format!("{key}: {e}"))?;
                 if let Some(em) = &emitter {
-                    lights.add(id, em.clone(), &mesh.positions, &mesh.indices);
+                    let area = lights
+                        .add(id, em.clone(), &mesh.positions, &mesh.indices)
+                        .map_err(|e| format!("{key}: {e}"))?;
+                    power += check_power(&key, em, area)?;
                 }
                 geometries.push(Geometry {
                     name: if name.is_empty() {
@@ -408,6 +463,17 @@ impl Builder<'_> {
         }
         if geometries.is_empty() {
             return Err("shapes: the scene has no shapes".into());
+        }
+        if power > f64::from(f32::MAX) {
+            return Err(format!(
+                "shapes: expected lights whose total power is finite in 32-bit floats, found {power:.3e} (each is, their sum is not)"
+            ));
+        }
+        if lights.is_empty() {
+            self.warnings.push(
+                "shapes: no shape has an `emission`: the scene has no light and renders black"
+                    .into(),
+            );
         }
         lights.finish();
         let accel = builder.commit().map_err(|e| e.to_string())?;
@@ -427,6 +493,73 @@ impl Builder<'_> {
             warnings: self.warnings,
             regions,
         })
+    }
+
+    /// Checks an emitter's radiance × scale against [`MAX_RADIANCE`], naming the key that
+    /// takes it over; warns of a light that emits nothing, and of a band too narrow to be
+    /// found by wavelength samples.
+    fn check_emitter(&mut self, key: &str, radiance: &Spectrum, scale: f32) -> Result<(), String> {
+        let peak = radiance.max_value();
+        if peak.is_nan() || peak > MAX_RADIANCE {
+            return Err(format!(
+                "{key}.emission.radiance: expected a spectral radiance ≤ {MAX_RADIANCE:e} W·sr⁻¹·m⁻²·nm⁻¹ (larger ones overflow 32-bit floats in a path's estimate), found a maximum of {peak:e}"
+            ));
+        }
+        // In f32, as the renderer multiplies (the limit itself, 1e20 × 1e10, passes).
+        let scaled = peak * scale;
+        if scaled > MAX_RADIANCE {
+            let scaled = f64::from(peak) * f64::from(scale);
+            return Err(format!(
+                "{key}.emission.scale: expected radiance × scale ≤ {MAX_RADIANCE:e} W·sr⁻¹·m⁻²·nm⁻¹ (larger ones overflow 32-bit floats in a path's estimate), found {peak:e} × {scale:e} = {scaled:.3e}"
+            ));
+        }
+        if scaled == 0.0 {
+            self.warnings.push(format!(
+                "{key}.emission: radiance × scale is 0 over {}–{} nm: the light is black",
+                spectrum::LAMBDA_MIN,
+                spectrum::LAMBDA_MAX
+            ));
+        } else if let Some(fwhm) = narrowest_band(radiance).filter(|&w| w < 1.0) {
+            self.warnings.push(format!(
+                "{key}.emission.radiance: a band {fwhm:e} nm wide (fwhm) is rarely hit by the sampled wavelengths and is weighed on a 1 nm grid when lights are chosen: expect a noisy image (a band of a few nm has nearly the same colour)"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Resolves `[spectra].name` into [`Builder::spectra`]. An entry may name another
+    /// entry (`sun = "lamp"`), which is resolved first, whatever the order of the file; a
+    /// name that is not an entry is a CIE illuminant. A chain that comes back to where it
+    /// started is an error listing it.
+    fn named_spectrum(&mut self, name: &str) -> Result<(), String> {
+        let d = self.desc;
+        // Follow the chain of references to its first entry that is not a name of another
+        // entry (or is resolved already), then resolve the chain from there back.
+        let mut chain = vec![name];
+        let mut last = name;
+        while let Some(SpectrumDesc::Name(next)) = d.spectra.get(last) {
+            if self.spectra.contains_key(last) || !d.spectra.contains_key(next) {
+                break;
+            }
+            if let Some(start) = chain.iter().position(|n| n == next) {
+                let mut cycle: Vec<&str> = chain[start..].to_vec();
+                cycle.push(next);
+                return Err(format!(
+                    "spectra.{}: expected a spectrum or the name of one, found a cycle of references {}",
+                    chain[start],
+                    cycle.join(" → ")
+                ));
+            }
+            chain.push(next);
+            last = next;
+        }
+        for n in chain.into_iter().rev() {
+            if !self.spectra.contains_key(n) {
+                let spec = self.spectrum(&format!("spectra.{n}"), &d.spectra[n], None)?;
+                self.spectra.insert(n.to_string(), spec);
+            }
+        }
+        Ok(())
     }
 
     /// The `[[region]]` tables, checked against the camera's resolution.
@@ -505,6 +638,22 @@ impl Builder<'_> {
             ))
             }
         };
+        let dense = |k: &str, s: &Spectrum| -> Result<(), String> {
+            let max = s.max_value();
+            if max > MAX_COEFFICIENT {
+                return Err(format!(
+                    "{key}.{k}: expected a coefficient ≤ {MAX_COEFFICIENT:e} per scene unit (denser is opaque at any scale and overflows 32-bit floats), found a maximum of {max:e}"
+                ));
+            }
+            Ok(())
+        };
+        match (&m.sigma_a, &m.sigma_t) {
+            (_, Some(_)) => dense("sigma_t", &combine(&sigma_a, &sigma_s, |a, s| a + s)?)?,
+            _ => {
+                dense("sigma_a", &sigma_a)?;
+                dense("sigma_s", &sigma_s)?;
+            }
+        }
         let g = m.g.unwrap_or(0.0);
         if !(g.is_finite() && g > -1.0 && g < 1.0) {
             return Err(format!("{key}.g: expected a number in (−1, 1), found {g}"));
@@ -519,9 +668,23 @@ impl Builder<'_> {
                     Some(Range::NonNegative),
                 )?;
                 let c = d.concentration.unwrap_or(1.0);
-                if !(c.is_finite() && c >= 0.0) {
+                if !(c.is_finite() && c > 0.0) {
+                    // Zero too: a dye at zero concentration does nothing (like one that
+                    // absorbs nothing, which `Reradiation::from_dye` rejects).
                     return Err(format!(
-                        "{key}.dye.concentration: expected a non-negative number, found {c}"
+                        "{key}.dye.concentration: expected a positive number, found {c}"
+                    ));
+                }
+                if c * a.max_value() > MAX_COEFFICIENT {
+                    let peak = f64::from(c) * f64::from(a.max_value());
+                    let k = if c == 1.0 {
+                        "absorption"
+                    } else {
+                        "concentration"
+                    };
+                    return Err(format!(
+                        "{key}.dye.{k}: expected concentration × absorption ≤ {MAX_COEFFICIENT:e} per scene unit (denser is opaque at any scale and overflows 32-bit floats), found {c:e} × {:e} = {peak:.3e}",
+                        a.max_value()
                     ));
                 }
                 let cell = dye_params(key, d.quantum_yield, d.cell_nm)?;
@@ -779,7 +942,7 @@ impl Builder<'_> {
                 } else {
                     return Err(format!(
                         "{key}: no spectrum named {n:?} (named spectra: {}; illuminants: D65, A, F2, F11)",
-                        list(self.spectra.keys())
+                        list(self.desc.spectra.keys())
                     ));
                 }
             }
@@ -825,9 +988,16 @@ impl Builder<'_> {
                         "{key}.blackbody: expected a temperature in kelvin > 0, found {k}"
                     ));
                 }
+                let normalise = t.normalise.unwrap_or(true);
+                let peak = spectrum::blackbody_peak_value(k);
+                if normalise && !(peak.is_finite() && peak > 0.0) {
+                    return Err(format!(
+                        "{key}.blackbody: expected a temperature whose peak radiance, which normalises it, is a finite non-zero 32-bit number, found {k:e} K (peak {peak:e} W·sr⁻¹·m⁻²·nm⁻¹)"
+                    ));
+                }
                 Spectrum::Blackbody {
                     kelvin: k,
-                    normalise: t.normalise.unwrap_or(true),
+                    normalise,
                 }
             }
             "illuminant" => {
@@ -900,6 +1070,17 @@ fn check_range(key: &str, spec: &Spectrum, range: Option<Range>) -> Result<(), S
             at.1 = l;
         }
     }
+    // The grid can step over a band narrower than 1 nm: its analytic maximum cannot.
+    let max = spec.max_value();
+    if !max.is_finite() {
+        return Err(format!(
+            "{key}: expected finite values, found a maximum of {max}"
+        ));
+    }
+    if max > hi {
+        hi = max;
+        at.1 = f32::NAN;
+    }
     if lo < 0.0 {
         let what = match range {
             Range::Unit => "a reflectance in [0, 1]",
@@ -914,9 +1095,13 @@ fn check_range(key: &str, spec: &Spectrum, range: Option<Range>) -> Result<(), S
         return Err(format!("{key}: expected {what}, found {lo} at {} nm", at.0));
     }
     if matches!(range, Range::Unit) && hi > 1.0 + 1e-6 {
+        let at = if at.1.is_nan() {
+            "as its maximum".to_string()
+        } else {
+            format!("at {} nm", at.1)
+        };
         return Err(format!(
-            "{key}: expected a reflectance in [0, 1], found {hi} at {} nm (energy would be created)",
-            at.1
+            "{key}: expected a reflectance in [0, 1], found {hi} {at} (energy would be created)"
         ));
     }
     Ok(())
