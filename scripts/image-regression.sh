@@ -163,7 +163,7 @@ build_current() {
 
 # --- helpers ----------------------------------------------------------------------------
 
-n_img_same=0 n_img_diff=0 n_msg_same=0 n_msg_diff=0 n_header_notes=0
+n_img_same=0 n_img_diff=0 n_msg_same=0 n_msg_diff=0 n_header_notes=0 n_weak=0
 default_keep=false
 if [ -z "$keep" ]; then
     keep="$work/keep"
@@ -176,8 +176,9 @@ report() { printf '%-66s %s\n' "$1" "$2"; }
 # The TIFF form of an image: pixel values with their bits unchanged, no metadata.
 tiff_args() { printf '%s\n' "$1" --eraseattrib ".*" --attrib DateTime "-" --compression none -o "$2"; }
 
-# Splits `oiiotool -v --info` output into DIR/NAME.layout (size, channels, pixel type) and
-# DIR/NAME.attrs (the other header lines, minus those that always differ).
+# Splits `oiiotool -v --info --stats` output into DIR/NAME.layout (size, channels, pixel
+# type), DIR/NAME.stats and DIR/NAME.attrs (the other header lines, minus those that
+# always differ).
 split_info() {
     awk -v dir="$1" '
         /^Reading / { name = $2; first = 1; next }
@@ -190,6 +191,7 @@ split_info() {
             print line > (dir "/" name ".layout"); first = 0; next
         }
         /^    channel list:/ { print > (dir "/" name ".layout"); next }
+        /^    (Stats |Constant:|Monochrome:)/ { print > (dir "/" name ".stats"); next }
         /^    (stokes:render_seconds|stokes:version):/ { next }
         { print > (dir "/" name ".attrs") }
     ' "$2"
@@ -206,7 +208,7 @@ prepare() {
         mapfile -t -O "${#args[@]}" args < <(tiff_args "$f" "$f.tif")
     done
     [ ${#args[@]} -gt 0 ] || return 0
-    if ! (cd "$dir" && oiiotool -v --info --nosoftwareattrib "${args[@]}") >"$dir/info.txt" 2>&1; then
+    if ! (cd "$dir" && oiiotool -v --info --stats --nosoftwareattrib "${args[@]}") >"$dir/info.txt" 2>&1; then
         cat "$dir/info.txt" >&2
         die "oiiotool could not read or convert the images in $dir"
     fi
@@ -238,7 +240,7 @@ verdict() {
         return
     fi
     if ! cmp -s "$a.layout" "$b.layout"; then
-        echo "DIFFERS: layout $(tr '\n' ' ' <"$a.layout")vs $(tr '\n' ' ' <"$b.layout")"
+        echo "DIFFERS: layout $(tr -s ' ' <"$a.layout" | paste -sd ';') vs $(tr -s ' ' <"$b.layout" | paste -sd ';')"
         return
     fi
     local rc=0 out max n x y
@@ -261,16 +263,34 @@ header_note() {
     local a="$1/base.$2.attrs" b="$1/current.$2.attrs"
     [ -f "$a" ] && [ -f "$b" ] || return 0
     cmp -s "$a" "$b" && return 0
-    echo " (note: header attributes differ: $(diff "$a" "$b" | sed -n 's/^[<>] *\([^:]*\):.*/\1/p' | sort -u | tr '\n' ' ' | sed 's/ $//'))"
+    echo " (note: header attributes differ: $(diff "$a" "$b" | sed -nE 's/^[<>] +([^ ]+): .*/\1/p' | sort -u | paste -sd ' '))"
+}
+
+# Notes what makes a pair a weak test: a constant base image (black, say) or NaN/Inf.
+stats_note() {
+    local a="$1/base.$2.stats" b="$1/current.$2.stats"
+    [ -f "$a" ] && [ -f "$b" ] || return 0
+    if grep -q '^    Constant: Yes' "$a"; then
+        echo " (note: constant base image: it tests little)"
+    fi
+    local side
+    for side in base current; do
+        if awk '/^    Stats (NanCount|InfCount):/ { for (i = 3; i <= NF; i++) if ($i != 0) bad = 1 } END { exit !bad }' "$1/$side.$2.stats"; then
+            echo " (note: NaN or Inf in the $side image)"
+        fi
+    done
 }
 
 # Reports one image pair, counts it, and keeps the images if they differ.
 compare_pair() {
     local dir=$1 name=$2 label=$3 tag=$4
-    local why note
+    local why note weak
     why=$(verdict "$dir" "$name")
     note=$(header_note "$dir" "$name")
     [ -z "$note" ] || n_header_notes=$((n_header_notes + 1))
+    weak=$(stats_note "$dir" "$name" | tr -d '\n')
+    [ -z "$weak" ] || n_weak=$((n_weak + 1))
+    note+=$weak
     if [ -z "$why" ]; then
         n_img_same=$((n_img_same + 1))
         report "$label" "identical$note"
@@ -465,6 +485,7 @@ done
 echo
 echo "$n_methods methods over ${#scenes[@]} scenes, 2 images each; renders and comparisons $((t_messages - t_renders)) s, messages $((SECONDS - t_messages)) s, total $((SECONDS - start)) s"
 [ "$n_header_notes" -eq 0 ] || echo "$n_header_notes images have header attributes that differ (not part of the verdict; see the notes)"
+[ "$n_weak" -eq 0 ] || echo "$n_weak images are weak tests (constant, or NaN/Inf; see the notes)"
 echo "$n_img_same images identical, $n_img_diff differ; $n_msg_same messages identical, $n_msg_diff differ"
 if [ "$n_img_diff" -ne 0 ]; then
     if $default_keep; then
