@@ -3,6 +3,7 @@
 //! Film coordinates are in pixels, x to the right and y down, (0, 0) the top-left corner.
 
 use crate::accel::Ray;
+use crate::error::{Key, KeyError};
 use glam::Vec3;
 
 /// A pinhole camera.
@@ -20,7 +21,8 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// A camera; `fov_deg` is the vertical field of view. Errors say what is degenerate.
+    /// A camera; `fov_deg` is the vertical field of view. Errors name the `camera` key
+    /// that is degenerate.
     pub fn new(
         position: Vec3,
         look_at: Vec3,
@@ -28,24 +30,27 @@ impl Camera {
         fov_deg: f32,
         width: u32,
         height: u32,
-    ) -> Result<Camera, String> {
+    ) -> Result<Camera, KeyError> {
+        let key = Key::root("camera");
         let forward = (look_at - position).normalize_or_zero();
         if forward == Vec3::ZERO {
-            return Err("camera.look_at: must differ from camera.position".into());
+            return Err(key
+                .field("look_at")
+                .error("must differ from camera.position"));
         }
         let right = forward.cross(up).normalize_or_zero();
         if right == Vec3::ZERO {
-            return Err("camera.up: must not be parallel to the viewing direction".into());
+            return Err(key
+                .field("up")
+                .error("must not be parallel to the viewing direction"));
         }
         if !(fov_deg > 0.0 && fov_deg < 180.0) {
-            return Err(format!(
-                "camera.fov: expected degrees in (0, 180), found {fov_deg}"
-            ));
+            return Err(key.field("fov").expected("degrees in (0, 180)", fov_deg));
         }
         if width == 0 || height == 0 {
-            return Err(format!(
-                "camera.resolution: expected positive sizes, found [{width}, {height}]"
-            ));
+            return Err(key
+                .field("resolution")
+                .expected("positive sizes", format!("[{width}, {height}]")));
         }
         let tan_half = (fov_deg.to_radians() * 0.5).tan();
         let aspect = width as f32 / height as f32;
@@ -70,6 +75,11 @@ impl Camera {
             height,
             ..self.clone()
         }
+    }
+
+    /// Pixels of the image.
+    pub fn pixel_count(&self) -> u64 {
+        self.width as u64 * self.height as u64
     }
 
     /// Film position (pixels) of a world point, or `None` if it is behind the camera.

@@ -2,23 +2,29 @@
 //!
 //! Geometry queries go to the system Embree through [`accel`], the only module allowed to
 //! use `unsafe`; everything else (spectra, sampling, materials, lights, integrators, film)
-//! is safe Rust.
+//! is safe Rust. The renderer's modules depend on none of [`tools`] (benchmarks,
+//! convergence charts, merging and references), which are built on top of them.
+//! `docs/design.md` describes the architecture and the estimator.
 #![deny(unsafe_code)]
 
 pub mod accel;
-pub mod bench_rays;
-pub mod bench_render;
 pub mod bsdf;
 pub mod camera;
-pub mod chart;
 pub mod color;
-pub mod converge;
+pub mod error;
 pub mod fluoro;
+pub mod header;
 pub mod integrator;
 pub mod light;
 pub mod medium;
-pub mod merge;
+pub mod method;
 pub mod output;
 pub mod sampler;
 pub mod scene;
 pub mod spectrum;
+pub mod tools;
+
+pub use error::{one_line, Error};
+
+/// The library's result: errors are [`Error`]s unless said otherwise.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

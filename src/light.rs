@@ -3,9 +3,43 @@
 //! Each emissive shape becomes an [`Emitter`] (spectral radiance × scale, one- or
 //! two-sided); its triangles enter one table, chosen with probability ∝ area × scale ×
 //! mean radiance and then sampled uniformly by area.
+//!
+//! ```toml
+//! [[shapes]]                    # any shape with an `emission` is an area light
+//! type = "quad"
+//! origin = [-0.5, 2.99, -0.5]
+//! edge_u = [1, 0, 0]
+//! edge_v = [0, 0, 1]
+//! emission = { radiance = "D65", scale = 0.3, two_sided = false }
+//! ```
+//! `radiance` is any spectrum (W·sr⁻¹·m⁻²·nm⁻¹); `radiance × scale` may not exceed
+//! [`MAX_RADIANCE`].
 
-use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::error::{Detail, Key, KeyError};
+use crate::scene::Context;
+use crate::spectrum::{self, Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
+use serde::Deserialize;
+
+/// Emission of an area light: radiance (W·sr⁻¹·m⁻²·nm⁻¹) × scale, from the front side or
+/// both.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmissionDesc {
+    /// Spectral radiance.
+    pub radiance: SpectrumDesc,
+    /// Multiplier (default 1).
+    pub scale: Option<f32>,
+    /// Emit from both sides (default false: only the front).
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+/// The largest spectral radiance × scale of an emitter (W·sr⁻¹·m⁻²·nm⁻¹): some 25 orders
+/// of magnitude above the Sun's (about 2·10⁴) and 8 below `f32::MAX`, the headroom a
+/// path's estimate needs (radiance over the wavelength pdf, times colour matching and
+/// throughput) to stay finite in 32-bit floats.
+pub const MAX_RADIANCE: f32 = 1e30;
 
 /// The emission of one shape.
 #[derive(Debug, Clone)]
@@ -19,6 +53,80 @@ pub struct Emitter {
 }
 
 impl Emitter {
+    /// The emission `e` of the shape at `shape` (its key). Warns of a light that emits
+    /// nothing, and of a band too narrow to be found by wavelength samples.
+    pub fn from_desc(
+        e: &EmissionDesc,
+        shape: &Key,
+        ctx: &mut Context,
+    ) -> Result<Emitter, KeyError> {
+        let key = shape.field("emission");
+        let scale = e.scale.unwrap_or(1.0);
+        if !(scale.is_finite() && scale >= 0.0) {
+            return Err(key.field("scale").expected("a non-negative number", scale));
+        }
+        let radiance_key = key.field("radiance");
+        let radiance = Spectrum::from_desc(&e.radiance, &radiance_key, ctx, Some(Range::Radiance))?;
+        let peak = radiance.max_value();
+        let headroom = "(larger ones overflow 32-bit floats in a path's estimate)";
+        if peak.is_nan() || peak > MAX_RADIANCE {
+            return Err(radiance_key.expected(
+                format!("a spectral radiance ≤ {MAX_RADIANCE:e} W·sr⁻¹·m⁻²·nm⁻¹ {headroom}"),
+                format!("a maximum of {peak:e}"),
+            ));
+        }
+        // In f32, as the renderer multiplies (the limit itself, 1e20 × 1e10, passes).
+        let scaled = peak * scale;
+        if scaled > MAX_RADIANCE {
+            let exact = f64::from(peak) * f64::from(scale);
+            return Err(key.field("scale").expected(
+                format!("radiance × scale ≤ {MAX_RADIANCE:e} W·sr⁻¹·m⁻²·nm⁻¹ {headroom}"),
+                format!("{peak:e} × {scale:e} = {exact:.3e}"),
+            ));
+        }
+        if scaled == 0.0 {
+            let (lo, hi) = (spectrum::LAMBDA_MIN, spectrum::LAMBDA_MAX);
+            ctx.warn(
+                &key,
+                format!("radiance × scale is 0 over {lo}–{hi} nm: the light is black"),
+            );
+        } else if let Some(fwhm) = narrowest_band(&radiance).filter(|&w| w < 1.0) {
+            ctx.warn(
+                &radiance_key,
+                format!("a band {fwhm:e} nm wide (fwhm) is rarely hit by the sampled wavelengths and is weighed on a 1 nm grid when lights are chosen: expect a noisy image (a band of a few nm has nearly the same colour)"),
+            );
+        }
+        Ok(Emitter {
+            radiance,
+            scale,
+            two_sided: e.two_sided,
+        })
+    }
+
+    /// The power of the emitter of the shape at `shape` over a total `area` (π × sides ×
+    /// area × radiance integrated over the rendered range), which must be finite in
+    /// 32-bit floats: the light selection table holds it (divided by π × sides × 470 nm)
+    /// in them.
+    pub fn checked_power(&self, shape: &Key, area: f64) -> Result<f64, KeyError> {
+        let sides = if self.two_sided { 2.0 } else { 1.0 };
+        let power = std::f64::consts::PI
+            * sides
+            * area
+            * f64::from(self.mean_radiance())
+            * f64::from(spectrum::LAMBDA_RANGE);
+        if power > f64::from(f32::MAX) {
+            return Err(shape.field("emission").expected(
+                format!(
+                    "a light whose power (π × area × radiance over {}–{} nm) is finite in 32-bit floats",
+                    spectrum::LAMBDA_MIN,
+                    spectrum::LAMBDA_MAX
+                ),
+                format!("{power:.3e} (area {area:.3e})"),
+            ));
+        }
+        Ok(power)
+    }
+
     /// Whether it emits towards a direction whose cosine with the front normal is `cos`.
     #[inline]
     pub fn emits_towards(&self, cos: f32) -> bool {
@@ -42,6 +150,15 @@ impl Emitter {
             })
             .sum();
         self.scale * sum / n as f32
+    }
+}
+
+/// The smallest fwhm (nm) of a narrow band in `s`, if it is one (possibly scaled).
+fn narrowest_band(s: &Spectrum) -> Option<f32> {
+    match s {
+        Spectrum::NarrowBand { fwhm, .. } => Some(*fwhm),
+        Spectrum::Scaled(inner, _) => narrowest_band(inner),
+        _ => None,
     }
 }
 
@@ -101,7 +218,7 @@ impl Lights {
         emitter: Emitter,
         positions: &[[f32; 3]],
         indices: &[[u32; 3]],
-    ) -> Result<f64, String> {
+    ) -> Result<f64, Detail> {
         let e = self.emitters.len() as u32;
         let mut triangles = Vec::with_capacity(indices.len());
         for (k, t) in indices.iter().enumerate() {
@@ -110,11 +227,14 @@ impl Lights {
             let c = e1.cross(e2);
             let area = 0.5 * c.length();
             if !area.is_finite() {
-                return Err(format!(
-                    "expected emitting triangles whose area is finite in 32-bit floats, found triangle {k} of area {area} (edges {:.3e} and {:.3e} long)",
-                    e1.as_dvec3().length(),
-                    e2.as_dvec3().length()
-                ));
+                return Err(Detail::Expected {
+                    expected: "emitting triangles whose area is finite in 32-bit floats".into(),
+                    found: format!(
+                        "triangle {k} of area {area} (edges {:.3e} and {:.3e} long)",
+                        e1.as_dvec3().length(),
+                        e2.as_dvec3().length()
+                    ),
+                });
             }
             triangles.push(LightTriangle {
                 p0,
@@ -255,6 +375,7 @@ mod tests {
         assert_eq!(area, 2.0);
         let huge = [[0.0, 0.0, 0.0], [1e20, 0.0, 0.0], [0.0, 0.0, 1e20]];
         let err = lights.add(1, emitter(), &huge, &[[0, 1, 2]]).unwrap_err();
+        let err = err.to_string();
         assert!(err.contains("triangle 0 of area inf"), "{err}");
         assert_eq!((lights.emitters.len(), lights.triangles.len()), (1, 1));
         assert_eq!(lights.emitter_index_of(1), None);

@@ -6,6 +6,11 @@
 //! failed write leaves any previous file intact.
 
 use crate::color;
+use crate::error::{Detail, Error};
+use crate::header::RenderHeader;
+use crate::integrator::render::{Film, ProgressiveResult};
+use crate::Result;
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// A temporary path beside `target` (same directory, so the rename is atomic).
@@ -17,29 +22,31 @@ fn temp_beside(target: &Path) -> PathBuf {
     target.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
-/// Runs `write` on a temporary file and renames it over `target` if it succeeded.
+/// Runs `write` on a temporary file and renames it over `target` if it succeeded. What
+/// `write` reports goes out as an [`Error::File`] of `target`.
 pub fn write_atomically(
     target: &Path,
-    write: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), String> {
+    write: impl FnOnce(&Path) -> Result<(), Detail>,
+) -> Result<()> {
     if let Some(dir) = target.parent() {
         if !dir.as_os_str().is_empty() && !dir.is_dir() {
             std::fs::create_dir_all(dir)
-                .map_err(|e| format!("{}: cannot create directory: {e}", dir.display()))?;
+                .map_err(|e| Error::file(dir, None, format!("cannot create directory: {e}")))?;
         }
     }
     let tmp = temp_beside(target);
     match write(&tmp) {
         Ok(()) => std::fs::rename(&tmp, target).map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
-            format!(
-                "{}: cannot move the finished image into place: {e}",
-                target.display()
+            Error::file(
+                target,
+                None,
+                format!("cannot move the finished image into place: {e}"),
             )
         }),
-        Err(e) => {
+        Err(detail) => {
             let _ = std::fs::remove_file(&tmp);
-            Err(format!("{}: {e}", target.display()))
+            Err(Error::file(target, None, detail))
         }
     }
 }
@@ -52,31 +59,42 @@ pub fn write_atomically(
 ///
 /// The check leaves nothing behind: writability is tested with a probe file that is
 /// removed at once, and missing directories are not created (the writes do that).
-pub fn check_outputs(outputs: &[(&str, &Path)]) -> Result<(), String> {
+///
+/// Errors are [`Error::Option`]s of the option and its path (`-o out/x.exr`).
+pub fn check_outputs(outputs: &[(&str, &Path)]) -> Result<()> {
     for (i, &(option, path)) in outputs.iter().enumerate() {
         check_output(option, path)?;
         if let Some(&(first, _)) = outputs[..i].iter().find(|(_, p)| same_file_name(p, path)) {
-            return Err(format!(
-                "{option} {}: expected a file of its own, found the file {first} writes",
-                path.display()
+            return Err(output_error(
+                option,
+                path,
+                "a file of its own",
+                format!("the file {first} writes"),
             ));
         }
     }
     Ok(())
 }
 
+/// `{option} {path}: expected {expected}, found {found}`.
+fn output_error(option: &str, path: &Path, expected: &str, found: impl Into<String>) -> Error {
+    Error::option(
+        &format!("{option} {}", path.display()),
+        Detail::Expected {
+            expected: expected.into(),
+            found: found.into(),
+        },
+    )
+}
+
 /// [`check_outputs`] for one path.
-fn check_output(option: &str, path: &Path) -> Result<(), String> {
-    let named = format!("{option} {}", path.display());
+fn check_output(option: &str, path: &Path) -> Result<()> {
+    let bad = |expected: &str, found: String| Err(output_error(option, path, expected, found));
     if path.file_name().is_none() || path.as_os_str().to_string_lossy().ends_with('/') {
-        return Err(format!(
-            "{named}: expected a file name, found a path without one"
-        ));
+        return bad("a file name", "a path without one".into());
     }
     if path.is_dir() {
-        return Err(format!(
-            "{named}: expected a file to write, found a directory"
-        ));
+        return bad("a file to write", "a directory".into());
     }
     // The nearest ancestor that exists: the directory to write in, or the one in which
     // the missing directories will be created.
@@ -92,10 +110,10 @@ fn check_output(option: &str, path: &Path) -> Result<(), String> {
         }
     }
     if !dir.is_dir() {
-        return Err(format!(
-            "{named}: expected a directory at {}, found a file",
-            dir.display()
-        ));
+        return bad(
+            &format!("a directory at {}", dir.display()),
+            "a file".into(),
+        );
     }
     let probe = dir.join(format!(".stokes-probe.{}.tmp", std::process::id()));
     match std::fs::OpenOptions::new()
@@ -109,10 +127,10 @@ fn check_output(option: &str, path: &Path) -> Result<(), String> {
         }
         // Ours from an earlier check of this process: the directory took it then.
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
-        Err(e) => Err(format!(
-            "{named}: expected a directory that takes new files, found {} refusing one: {e}",
-            dir.display()
-        )),
+        Err(e) => bad(
+            "a directory that takes new files",
+            format!("{} refusing one: {e}", dir.display()),
+        ),
     }
 }
 
@@ -137,6 +155,16 @@ fn same_file_name(a: &Path, b: &Path) -> bool {
     key(a) == key(b)
 }
 
+/// `<dir>/<stem>.variance.exr` beside `<dir>/<stem>.exr`: where a render keeps the
+/// variance of its pixel means.
+pub fn variance_path(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!("{stem}.variance.exr"))
+}
+
 /// Writes a float RGB EXR; `metadata` goes into the header as text attributes.
 pub fn write_exr(
     path: &Path,
@@ -144,14 +172,15 @@ pub fn write_exr(
     height: u32,
     rgb: &[[f32; 3]],
     metadata: &[(String, String)],
-) -> Result<(), String> {
+) -> Result<()> {
     use exr::meta::attribute::{AttributeValue, Text};
     use exr::prelude::*;
     if rgb.len() != width as usize * height as usize {
-        return Err(format!(
-            "{}: {} pixels given for a {width}x{height} image",
-            path.display(),
-            rgb.len()
+        // `crate::Error`: exr's prelude has an `Error` of its own.
+        return Err(crate::Error::file(
+            path,
+            None,
+            format!("{} pixels given for a {width}x{height} image", rgb.len()),
         ));
     }
     let w = width as usize;
@@ -178,7 +207,7 @@ pub fn write_exr(
         image
             .write()
             .to_file(tmp)
-            .map_err(|e| format!("cannot write EXR: {e}"))
+            .map_err(|e| format!("cannot write EXR: {e}").into())
     })
 }
 
@@ -187,7 +216,7 @@ pub type ExrImage = (u32, u32, Vec<[f32; 3]>, Vec<(String, String)>);
 
 /// Reads the RGB channels and the `stokes:*` text attributes of an EXR written by
 /// [`write_exr`] (or any RGB(A) EXR).
-pub fn read_exr(path: &Path) -> Result<ExrImage, String> {
+pub fn read_exr(path: &Path) -> Result<ExrImage> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
@@ -196,7 +225,7 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, String> {
             px[pos.y() * *w + pos.x()] = [r, g, b];
         },
     )
-    .map_err(|e| format!("{}: cannot read EXR: {e}", path.display()))?;
+    .map_err(|e| crate::Error::file(path, None, format!("cannot read EXR: {e}")))?;
     let size = image.layer_data.size;
     let mut meta = Vec::new();
     for (k, v) in &image.layer_data.attributes.other {
@@ -216,7 +245,7 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, String> {
 }
 
 /// Writes an 8-bit sRGB PNG preview (values clipped to [0, 1]).
-pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<(), String> {
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
     let bytes: Vec<u8> = rgb
         .iter()
         .flat_map(|c| c.map(|v| (color::srgb_encode(v) * 255.0 + 0.5) as u8))
@@ -232,8 +261,143 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
             .map_err(|e| format!("cannot write PNG: {e}"))?;
         w.write_image_data(&bytes)
             .map_err(|e| format!("cannot write PNG: {e}"))?;
-        w.finish().map_err(|e| format!("cannot write PNG: {e}"))
+        w.finish()
+            .map_err(|e| format!("cannot write PNG: {e}").into())
     })
+}
+
+/// The files a render writes: the EXR of the pixel means and, if asked for, the variance
+/// of each mean (`<stem>.variance.exr`), an sRGB PNG preview (`<stem>.png`) and
+/// statistics as JSON.
+#[derive(Debug, Clone)]
+pub struct RenderFiles {
+    /// The EXR.
+    pub exr: PathBuf,
+    /// Whether to write the variance image.
+    pub variance: bool,
+    /// Whether to write the PNG preview.
+    pub png: bool,
+    /// Where to write statistics, if anywhere.
+    pub stats_json: Option<PathBuf>,
+}
+
+impl RenderFiles {
+    /// Every file to be written, with the option that names it.
+    pub fn paths(&self) -> Vec<(&'static str, PathBuf)> {
+        let mut v = vec![("-o", self.exr.clone())];
+        if self.variance {
+            v.push(("--variance", variance_path(&self.exr)));
+        }
+        if self.png {
+            v.push(("--png", self.exr.with_extension("png")));
+        }
+        if let Some(p) = &self.stats_json {
+            v.push(("--stats-json", p.clone()));
+        }
+        v
+    }
+
+    /// Checks before any work that every file can be written ([`check_outputs`]).
+    pub fn check(&self) -> Result<()> {
+        let paths = self.paths();
+        let named: Vec<(&str, &Path)> = paths.iter().map(|(o, p)| (*o, p.as_path())).collect();
+        check_outputs(&named)
+    }
+
+    /// Writes the images of `film` with `header`'s attributes.
+    pub fn write_images(&self, film: &Film, header: &RenderHeader) -> Result<()> {
+        let (w, h) = (film.width, film.height);
+        let meta = header.attributes();
+        let mean = film.mean();
+        write_exr(&self.exr, w, h, &mean, &meta)?;
+        if self.png {
+            write_png(&self.exr.with_extension("png"), w, h, &mean)?;
+        }
+        if self.variance {
+            write_exr(
+                &variance_path(&self.exr),
+                w,
+                h,
+                &film.variance_of_mean(),
+                &meta,
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// What `stokes render --stats-json` writes.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderStats {
+    /// Seconds of rendering.
+    pub seconds: f64,
+    /// Samples per pixel rendered.
+    pub spp: u32,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Pixel samples per second.
+    pub samples_per_second: f64,
+    /// Rays traced (camera, bounce and shadow).
+    pub rays: u64,
+    /// Rays per second.
+    pub rays_per_second: f64,
+    /// `hwss` or `mono`.
+    pub spectral: &'static str,
+    /// `packet`, `lockstep` or `single`.
+    pub ray_mode: &'static str,
+    /// The share of packet lanes that carried a ray (packet modes).
+    pub packet_lane_occupancy: Option<f64>,
+    /// `split` or `drop`.
+    pub dispersion: &'static str,
+    /// Samples dropped as NaN or infinite.
+    pub nonfinite_samples: u64,
+    /// The seed.
+    pub seed: u64,
+    /// The first sample index.
+    pub seed_offset: u64,
+    /// Passes rendered.
+    pub passes: u32,
+    /// Why the render ended.
+    pub stopped: &'static str,
+}
+
+impl RenderStats {
+    /// The statistics of a finished render with header `header`.
+    pub fn new(done: &ProgressiveResult, header: &RenderHeader) -> RenderStats {
+        use crate::method::Axis;
+        let r = &done.render;
+        let samples = r.film.width as f64 * r.film.height as f64 * r.film.spp as f64;
+        let first = header.ranges.first();
+        RenderStats {
+            seconds: r.seconds,
+            spp: r.film.spp,
+            width: r.film.width,
+            height: r.film.height,
+            samples_per_second: samples / r.seconds,
+            rays: r.stats.rays,
+            rays_per_second: r.stats.rays as f64 / r.seconds,
+            spectral: header.method.spectral.name(),
+            ray_mode: header.method.rays.name(),
+            packet_lane_occupancy: r.stats.occupancy(),
+            dispersion: header.method.dispersion.name(),
+            nonfinite_samples: r.stats.nonfinite,
+            seed: first.map_or(0, |r| r.seed),
+            seed_offset: first.map_or(0, |r| r.start),
+            passes: done.passes,
+            stopped: done.stopped.name(),
+        }
+    }
+
+    /// Writes the statistics as pretty JSON.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        // Plain numbers and names: serialising cannot fail, and has no place to blame.
+        let text = serde_json::to_string_pretty(self).map_err(|e| Error::Other(e.to_string()))?;
+        write_atomically(path, |tmp| {
+            std::fs::write(tmp, text + "\n").map_err(|e| format!("cannot write: {e}").into())
+        })
+    }
 }
 
 #[cfg(test)]
@@ -266,7 +430,7 @@ mod tests {
         std::fs::write(dir.join("file"), b"x").unwrap();
         let ok = dir.join("new/deeper/img.exr");
         assert_eq!(
-            check_outputs(&[("-o", &ok), ("--png", &dir.join("a.png"))]),
+            check_outputs(&[("-o", &ok), ("--png", &dir.join("a.png"))]).map_err(|e| e.to_string()),
             Ok(())
         );
         let bad: [(&[(&str, &Path)], &str); 5] = [
@@ -283,7 +447,7 @@ mod tests {
             ),
         ];
         for (outputs, fragment) in bad {
-            let e = check_outputs(outputs).unwrap_err();
+            let e = check_outputs(outputs).unwrap_err().to_string();
             assert!(e.contains(fragment), "{outputs:?}: {e}");
         }
         // Nothing created: no directories, no probe files.

@@ -5,7 +5,7 @@ mod common;
 use common::*;
 use glam::Vec3;
 use stokes::color::{delta_e_2000, linear_srgb_to_xyz, xyz_to_lab};
-use stokes::integrator::Spectral;
+use stokes::method::Spectral;
 use stokes::spectrum::{csv_column, illuminant, reflectance_to_xyz, spectrum_to_xyz, Spectrum};
 
 const W: u32 = 150;
@@ -48,7 +48,11 @@ fn rendered_patches_match_their_spectra_under_d65() {
     // of HWSS); both counts bring the noise well below ΔE 1 on the light neutrals.
     for (spectral, spp) in [(Spectral::Hwss, 256), (Spectral::Mono, 2048)] {
         let mut scene = scene_file("colorchecker.toml");
-        let film = render_film(&mut scene, W, H, spp, 11, spectral, -1, 0);
+        let film = TestRender::at(W, H)
+            .spp(spp)
+            .seed(11)
+            .spectral(spectral)
+            .film(&mut scene);
         let mut worst = (0.0f32, String::new());
         for (i, name) in names.iter().enumerate() {
             let px = patch_pixels(i);
@@ -78,7 +82,7 @@ fn a_wrong_illuminant_is_caught() {
     let a = Spectrum::Scaled(Box::new(illuminant("A").unwrap()), 0.01);
     let white = spectrum_to_xyz(&d65);
     let mut scene = scene_file("colorchecker.toml");
-    let film = render_film(&mut scene, W, H, 16, 12, Spectral::Hwss, -1, 0);
+    let film = TestRender::at(W, H).spp(16).seed(12).film(&mut scene);
     let rho = Spectrum::Tabulated(csv_column(&csv, Some("blue_sky")).unwrap());
     let (m, _) = region_mean(&film, &patch_pixels(2));
     let got = linear_srgb_to_xyz(Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32));

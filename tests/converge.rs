@@ -13,7 +13,7 @@
 mod common;
 use common::*;
 use std::path::{Path, PathBuf};
-use stokes::converge::{loglog_slope, CSV_HEADER};
+use stokes::tools::converge::{loglog_slope, CSV_HEADER};
 
 /// A grey sphere in a closed box that both emits (D65) and reflects: every pixel is
 /// smooth and noisy alike.
@@ -672,4 +672,195 @@ fn info_lists_the_regions_converge_reports() {
     let cbox = s(&root().join("scenes/cornell-box.toml"));
     let (stdout, _) = ok(&["info", &cbox]);
     assert!(stdout.contains("regions     none"), "{stdout}");
+}
+
+/// The furnace at 8×8 with a reference of 64 spp rendered in-process (seed 3, depth 3,
+/// one thread): the scene, the settings and the reference's path.
+fn furnace_with_reference(
+    dir: &Path,
+) -> (
+    stokes::scene::Scene,
+    stokes::integrator::render::RenderOptions,
+    PathBuf,
+) {
+    let t = TestRender::at(8, 8).seed(3).threads(1).max_depth(3);
+    let mut scene = scene_from(FURNACE);
+    scene.set_resolution(8, 8);
+    let reference = dir.join("ref.exr");
+    let job = stokes::tools::reference::Job {
+        scene: &scene,
+        opts: &t.opts,
+        spp: 64,
+        out: &reference,
+        resume: false,
+        stop: None,
+    };
+    stokes::tools::reference::render(&job, &mut |_| {}).unwrap();
+    (scene, t.opts, reference)
+}
+
+#[test]
+fn a_comparison_runs_in_process() {
+    use stokes::method::{Method, Spectral};
+    use stokes::tools::converge::{self, Budget, Job, FILES};
+    let dir = scratch("converge-job");
+    let (scene, opts, reference_path) = furnace_with_reference(&dir);
+    let reference = stokes::tools::merge::Part::read(&reference_path).unwrap();
+    assert_eq!(
+        converge::check_reference(&reference, &scene, &opts).unwrap(),
+        None
+    );
+    let first_sample = converge::first_sample_after(&reference, opts.seed).unwrap();
+    assert_eq!(first_sample, 64, "new samples start after the reference's");
+
+    let hwss = opts.method.resolve(&scene);
+    let mono = Method {
+        spectral: Spectral::Mono,
+        ..hwss
+    };
+    let job = Job {
+        scene: &scene,
+        base: &opts,
+        methods: vec![hwss, mono],
+        reference: &reference,
+        budget: Budget {
+            seconds: 600.0,
+            max_spp: Some(8),
+            first_sample,
+        },
+        out_dir: dir.join("out"),
+    };
+    let mut heard = Vec::new();
+    let report = job.run(&mut |i, run| heard.push((i, run.method.to_string())));
+    let report = report.unwrap();
+    assert_eq!(heard, [(0, hwss.to_string()), (1, mono.to_string())]);
+    let names: Vec<&str> = report.regions.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(names, ["image", "sphere"]);
+    assert_eq!(report.region, 1, "the charts use the first [[region]]");
+    for run in &report.runs {
+        let spp: Vec<u32> = run.checkpoints.iter().map(|c| c.spp).collect();
+        assert_eq!(spp, [1, 2, 4, 8], "{}", run.method);
+        assert!(run.checkpoints.iter().all(|c| c.errors.len() == 2));
+        assert!(run
+            .checkpoints
+            .windows(2)
+            .all(|w| w[0].seconds <= w[1].seconds));
+        // 8 spp against 1 (each against a 64-spp reference): the RMSE over 192 channel
+        // values should fall by √((1 + 1/64) / (1/8 + 1/64)) ≈ 2.7.
+        let rmse = |k: usize| run.checkpoints[k].errors[0].rmse;
+        assert!(
+            rmse(3) < rmse(0) / 2.0,
+            "{}: {} → {}",
+            run.method,
+            rmse(0),
+            rmse(3)
+        );
+    }
+    for f in FILES {
+        assert!(job.out_dir.join(f).is_file(), "{f} not written");
+    }
+    let rows = read_csv(&job.out_dir.join("convergence.csv"));
+    assert_eq!(rows.len(), 2 * 4 * 2, "methods × checkpoints × regions");
+    let last = report.runs[1].checkpoints.last().unwrap();
+    let row = rows.last().unwrap();
+    assert_eq!(
+        (row.method.as_str(), row.spp),
+        (mono.to_string().as_str(), 8)
+    );
+    assert_eq!(row.region, "sphere");
+    assert!((row.rmse - last.errors[1].rmse).abs() <= 1e-5 * last.errors[1].rmse);
+    assert!(
+        report
+            .summary
+            .contains(&format!("against {} (64 spp)", reference_path.display())),
+        "{}",
+        report.summary
+    );
+}
+
+#[test]
+fn a_comparison_that_does_not_fit_is_refused_before_rendering() {
+    use stokes::error::{Detail, Error};
+    use stokes::header::SampleRange;
+    use stokes::tools::converge::{self, Budget, Job};
+    let dir = scratch("converge-job-refused");
+    let (mut scene, opts, reference_path) = furnace_with_reference(&dir);
+    let reference = stokes::tools::merge::Part::read(&reference_path).unwrap();
+    let about_the_reference = |e: &Error| {
+        matches!(e, Error::About { option: Some(o), file, .. }
+            if o == "--reference" && file == &reference_path)
+    };
+
+    let deeper = stokes::integrator::render::RenderOptions {
+        max_depth: 2,
+        ..opts.clone()
+    };
+    let e = converge::check_reference(&reference, &scene, &deeper).unwrap_err();
+    assert!(about_the_reference(&e), "{e:?}");
+    assert!(
+        e.to_string().starts_with(&format!(
+            "--reference {} was rendered with max_depth = 3 but this run uses 2",
+            reference_path.display()
+        )),
+        "{e}"
+    );
+
+    let mut full = reference.clone();
+    full.header.ranges = vec![SampleRange {
+        seed: opts.seed,
+        start: 0,
+        end: u32::MAX as u64,
+    }];
+    let e = converge::first_sample_after(&full, opts.seed).unwrap_err();
+    assert!(about_the_reference(&e), "{e:?}");
+    assert!(e.to_string().contains("too many to draw new ones"), "{e}");
+    assert_eq!(
+        converge::first_sample_after(&full, opts.seed + 1).unwrap(),
+        0
+    );
+
+    // An --out that cannot be a directory: refused before any method renders.
+    let blocker = dir.join("blocker");
+    std::fs::write(&blocker, b"x").unwrap();
+    let job = Job {
+        scene: &scene,
+        base: &opts,
+        methods: vec![opts.method.resolve(&scene)],
+        reference: &reference,
+        budget: Budget {
+            seconds: 600.0,
+            max_spp: Some(2),
+            first_sample: 64,
+        },
+        out_dir: blocker.join("out"),
+    };
+    let mut runs = 0;
+    let e = job.run(&mut |_, _| runs += 1).err().unwrap();
+    let csv = blocker.join("out/convergence.csv");
+    match &e {
+        Error::Option {
+            option,
+            detail: Detail::Expected { expected, found },
+        } => {
+            assert_eq!(option, &format!("--out {}", csv.display()));
+            assert_eq!(
+                (expected.as_str(), found.as_str()),
+                (
+                    format!("a directory at {}", blocker.display()).as_str(),
+                    "a file"
+                )
+            );
+        }
+        _ => panic!("expected an error of --out: {e:?}"),
+    }
+    assert_eq!(runs, 0, "rendered for results it could not keep");
+
+    // The scene at another size than the reference's.
+    scene.set_resolution(4, 4);
+    let e = converge::check_reference(&reference, &scene, &opts).unwrap_err();
+    assert!(about_the_reference(&e), "{e:?}");
+    assert!(
+        e.to_string().contains("is 8x8 but this run renders 4x4"),
+        "{e}"
+    );
 }

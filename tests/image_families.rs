@@ -22,9 +22,8 @@ mod common;
 use common::oiio::{shifted_copy, Exr, ImageCheck, Report};
 use common::*;
 use std::path::Path;
-use stokes::integrator::render::RenderOptions;
-use stokes::integrator::{Dispersion, Rays, Shifting, Spectral};
 use stokes::medium::Tracking;
+use stokes::method::{Dispersion, Rays, Shifting, Spectral};
 use stokes::scene::Scene;
 
 /// Image side in pixels.
@@ -35,7 +34,7 @@ const THREADS: usize = 1;
 /// An estimator, as a change from the default (HWSS, independent shifting, the scene's
 /// default tracking). Every render also has its own seed, so renders are independent.
 #[derive(Clone, Copy, Debug)]
-enum Method {
+enum Variant {
     /// The default estimator.
     Base,
     /// One wavelength per path, with 4× the samples: a pixel's samples must cover the
@@ -55,7 +54,7 @@ enum Method {
 #[derive(Clone, Copy, Debug)]
 enum Wrong {
     /// A biased estimator.
-    Method(Method, &'static str),
+    Variant(Variant, &'static str),
     /// The scene text with each `(from, to)` replacement made (every `from` must occur).
     Edit(&'static [(&'static str, &'static str)], &'static str),
 }
@@ -65,34 +64,26 @@ enum Wrong {
 struct Family {
     scene: &'static str,
     spp: u32,
-    agree: &'static [Method],
+    agree: &'static [Variant],
     wrong: &'static [Wrong],
 }
 
-fn options(method: Method, spp: u32, seed: u64) -> RenderOptions {
-    let mut o = RenderOptions {
-        width: RES,
-        height: RES,
-        spp,
-        seed,
-        max_depth: -1,
-        spectral: Spectral::Hwss,
-        shifting: Shifting::Independent,
-        tracking: None,
-        threads: THREADS,
-        rays: Default::default(),
-        dispersion: Default::default(),
-    };
-    match method {
-        Method::Base => {}
-        Method::Mono => {
-            o.spectral = Spectral::Mono;
-            o.spp *= 4;
+fn options(variant: Variant, spp: u32, seed: u64) -> TestRender {
+    let mut o = TestRender::at(RES, RES)
+        .spp(spp)
+        .seed(seed)
+        .threads(THREADS);
+    let m = &mut o.opts.method;
+    match variant {
+        Variant::Base => {}
+        Variant::Mono => {
+            m.spectral = Spectral::Mono;
+            o.opts.spp *= 4;
         }
-        Method::Constant => o.shifting = Shifting::Constant,
-        Method::Tracking(t) => o.tracking = Some(t),
-        Method::Rays(r) => o.rays = r,
-        Method::Dispersion(d) => o.dispersion = d,
+        Variant::Constant => m.shifting = Shifting::Constant,
+        Variant::Tracking(t) => m.tracking = Some(t),
+        Variant::Rays(r) => m.rays = r,
+        Variant::Dispersion(d) => m.dispersion = d,
     }
     o
 }
@@ -100,17 +91,17 @@ fn options(method: Method, spp: u32, seed: u64) -> RenderOptions {
 /// Renders `scene` with `method` and writes `<dir>/<name>.exr` and its variance image.
 fn render_exr(
     scene: &mut Scene,
-    method: Method,
+    method: Variant,
     spp: u32,
     seed: u64,
     dir: &Path,
     name: &str,
 ) -> Exr {
     let opts = options(method, spp, seed);
-    let film = render_opts(scene, &opts);
+    let film = opts.film(scene);
     let out = Exr::stokes(dir.join(format!("{name}.exr")));
     let meta = [
-        ("spp".to_string(), opts.spp.to_string()),
+        ("spp".to_string(), opts.opts.spp.to_string()),
         ("seed".to_string(), seed.to_string()),
         ("method".to_string(), format!("{method:?}")),
     ];
@@ -189,8 +180,8 @@ fn check_family(f: &Family) {
     let name = |s: &str| format!("{}: {s}", f.scene);
 
     // Two independent renders of the default estimator agree.
-    let base = render_exr(&mut scene, Method::Base, f.spp, 1, &dir, "base");
-    let seed2 = render_exr(&mut scene, Method::Base, f.spp, 2, &dir, "seed2");
+    let base = render_exr(&mut scene, Variant::Base, f.spp, 1, &dir, "base");
+    let seed2 = render_exr(&mut scene, Variant::Base, f.spp, 2, &dir, "seed2");
     assert_agree(&name("seed 2 vs seed 1"), &seed2, &base);
 
     // Estimators with the same expectation agree.
@@ -218,7 +209,7 @@ fn check_family(f: &Family) {
     // Physically wrong renders fail.
     for (i, w) in f.wrong.iter().enumerate() {
         let (img, what) = match *w {
-            Wrong::Method(m, why) => (
+            Wrong::Variant(m, why) => (
                 render_exr(
                     &mut scene,
                     m,
@@ -243,7 +234,7 @@ fn check_family(f: &Family) {
                 (
                     render_exr(
                         &mut edited,
-                        Method::Base,
+                        Variant::Base,
                         f.spp,
                         20 + i as u64,
                         &dir,
@@ -271,7 +262,7 @@ macro_rules! families {
     };
 }
 
-use Method::*;
+use Variant::*;
 
 /// Every dye's quantum yield set to 0 in the fluorescent-surfaces scenes: the dyes
 /// absorb but re-emit nothing.
@@ -280,7 +271,7 @@ const NO_REEMISSION: &[(&str, &str)] = &[
     ("quantum_yield = 0.85 }", "quantum_yield = 0.0 }"),
     ("quantum_yield = 0.7 }", "quantum_yield = 0.0 }"),
 ];
-const CLASSIC: Wrong = Wrong::Method(
+const CLASSIC: Wrong = Wrong::Variant(
     Tracking(Tracking::Classic),
     "classic tracking never collides where σ̂_t = 0 < σ̂_s",
 );

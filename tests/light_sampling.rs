@@ -122,7 +122,9 @@ fn build(shapes: &[Shape]) -> Lights {
             scale: s.scale,
             two_sided: s.two_sided,
         };
-        lights.add(s.geom, emitter, &s.positions, &s.indices);
+        lights
+            .add(s.geom, emitter, &s.positions, &s.indices)
+            .expect("a finite emitter");
     }
     lights.finish();
     lights

@@ -11,27 +11,20 @@ use common::*;
 use glam::Vec4;
 use stokes::integrator::packet::{Grouping, Wavefront};
 use stokes::integrator::path::Path;
-use stokes::integrator::render::{Film, RenderOptions};
-use stokes::integrator::{radiance, Dispersion, PathOptions, PathStats, Rays, Shifting, Spectral};
+use stokes::integrator::render::Film;
+use stokes::integrator::{radiance, PathOptions, PathStats};
 use stokes::medium::tracking::Tracking;
+use stokes::method::{Axis, Dispersion, Method, Rays};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 use stokes::spectrum::SampledWavelengths;
 
-fn opts(w: u32, h: u32, spp: u32, rays: Rays, dispersion: Dispersion) -> RenderOptions {
-    RenderOptions {
-        width: w,
-        height: h,
-        spp,
-        seed: 11,
-        max_depth: -1,
-        spectral: Spectral::Hwss,
-        shifting: Shifting::Independent,
-        tracking: None,
-        threads: 0,
-        rays,
-        dispersion,
-    }
+fn opts(w: u32, h: u32, spp: u32, rays: Rays, dispersion: Dispersion) -> TestRender {
+    TestRender::at(w, h)
+        .spp(spp)
+        .seed(11)
+        .rays(rays)
+        .dispersion(dispersion)
 }
 
 /// How many pixels differ between two films, after checking the sample counts match.
@@ -46,11 +39,11 @@ fn differing_pixels(a: &Film, b: &Film) -> usize {
 
 /// Renders `scene` in every ray mode and checks the images are the same estimate.
 fn modes_agree(name: &str, scene: &mut Scene, w: u32, h: u32, spp: u32, dispersion: Dispersion) {
-    let single = render_opts(scene, &opts(w, h, spp, Rays::Single, dispersion));
+    let single = opts(w, h, spp, Rays::Single, dispersion).film(scene);
     let (m, _) = region_mean(&single, &all_pixels(&single));
     assert!(m.iter().sum::<f64>() > 1e-4, "{name}: the image is black");
     for rays in [Rays::Packet, Rays::Lockstep] {
-        let film = render_opts(scene, &opts(w, h, spp, rays, dispersion));
+        let film = opts(w, h, spp, rays, dispersion).film(scene);
         let diff = differing_pixels(&single, &film);
         eprintln!("{name}: {} vs single: {diff} pixels differ", rays.name());
         assert!(
@@ -113,11 +106,12 @@ fn packet_and_single_rays_give_the_same_image() {
 /// The path options of the scenes below.
 fn path_opts(dispersion: Dispersion) -> PathOptions {
     PathOptions {
-        spectral: Spectral::Hwss,
-        shifting: Shifting::Independent,
-        tracking: Tracking::Classic,
+        method: Method {
+            dispersion,
+            ..Method::default()
+        }
+        .with_tracking(Tracking::Classic),
         max_depth: -1,
-        dispersion,
     }
 }
 
@@ -259,10 +253,7 @@ fn split_paths_in_a_dispersive_furnace_return_the_emitted_radiance() {
     .into_iter()
     .map(|(name, text, d, spp)| {
         let mut scene = scene_from(text);
-        (
-            name,
-            render_opts(&mut scene, &opts(16, 16, spp, Rays::Packet, d)),
-        )
+        (name, opts(16, 16, spp, Rays::Packet, d).film(&mut scene))
     })
     .collect();
     let all = all_pixels(&runs[0].1);
@@ -337,11 +328,8 @@ fn wide_prism() -> Scene {
 fn split_agrees_with_lane_dropping_on_the_prism_and_is_less_noisy() {
     let mut scene = wide_prism();
     let (w, h, spp) = (32, 32, 2048);
-    let drop = render_opts(&mut scene, &opts(w, h, spp, Rays::Packet, Dispersion::Drop));
-    let split = render_opts(
-        &mut scene,
-        &opts(w, h, spp, Rays::Packet, Dispersion::Split),
-    );
+    let drop = opts(w, h, spp, Rays::Packet, Dispersion::Drop).film(&mut scene);
+    let split = opts(w, h, spp, Rays::Packet, Dispersion::Split).film(&mut scene);
     let mut strips = spectrum_strips(&split, 4);
     strips.push(("image".into(), all_pixels(&split)));
     assert_all_agree(

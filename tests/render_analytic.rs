@@ -4,7 +4,7 @@
 mod common;
 use common::*;
 use stokes::color::xyz_to_linear_srgb;
-use stokes::integrator::Spectral;
+use stokes::method::Spectral;
 use stokes::spectrum::{reflectance_to_xyz, spectrum_to_xyz, Spectrum};
 
 /// A sphere of the given reflectance inside a black box whose walls emit `radiance`
@@ -45,7 +45,11 @@ fn white_furnace_returns_the_emitted_radiance() {
     // error is well under the 0.5 % tolerance in both modes.
     for (spectral, spp) in [(Spectral::Hwss, 4096), (Spectral::Mono, 40000)] {
         let mut scene = scene_from(&enclosure_scene("1.0", "1.0"));
-        let film = render_film(&mut scene, 16, 16, spp, 1, spectral, -1, 0);
+        let film = TestRender::at(16, 16)
+            .spp(spp)
+            .seed(1)
+            .spectral(spectral)
+            .film(&mut scene);
         let (m, se) = region_mean(&film, &all_pixels(&film));
         eprintln!("{spectral:?}: mean {m:?} se {se:?}, expected {expected}");
         for c in 0..3 {
@@ -84,7 +88,11 @@ fn diffuse_sphere_in_uniform_enclosure_matches_albedo_times_radiance() {
     let expected = xyz_to_linear_srgb(reflectance_to_xyz(&rho_s, &d65_s));
     for spectral in [Spectral::Hwss, Spectral::Mono] {
         let mut scene = scene_from(&text);
-        let film = render_film(&mut scene, 32, 32, 32, 2, spectral, -1, 0);
+        let film = TestRender::at(32, 32)
+            .spp(32)
+            .seed(2)
+            .spectral(spectral)
+            .film(&mut scene);
         // Pixels well inside the sphere's silhouette (radius 1 at distance 1.8, 60° fov).
         let r_px = (1.0f32 / (1.8f32 * 1.8 - 1.0).sqrt()) / (30f32.to_radians().tan()) * 16.0;
         let inner: Vec<usize> = (0..32 * 32)
@@ -104,7 +112,7 @@ fn diffuse_sphere_in_uniform_enclosure_matches_albedo_times_radiance() {
 fn biased_expectation_is_rejected() {
     // The Z-test above can fail: a 3 % brighter expectation is rejected.
     let mut scene = scene_from(&enclosure_scene("0.5", "1.0"));
-    let film = render_film(&mut scene, 32, 32, 256, 3, Spectral::Hwss, -1, 0);
+    let film = TestRender::at(32, 32).spp(256).seed(3).film(&mut scene);
     let expected = xyz_to_linear_srgb(spectrum_to_xyz(&Spectrum::Constant(0.5)));
     let centre: Vec<usize> = (0..32 * 32usize)
         .filter(|i| (i % 32).abs_diff(16) < 5 && (i / 32).abs_diff(16) < 5)
@@ -123,38 +131,54 @@ fn biased_expectation_is_rejected() {
 fn max_depth_counts_segments_from_the_camera() {
     let mut scene = scene_file("cornell-box.toml");
     // Depth 1: only the luminaire is visible; everything else is black.
-    let film = render_film(&mut scene, 24, 24, 4, 0, Spectral::Hwss, 1, 0);
+    let film = TestRender::at(24, 24).spp(4).max_depth(1).film(&mut scene);
     let mean = film.mean();
     let lit = mean.iter().filter(|p| p[1] > 0.0).count();
     assert!(lit > 0 && lit < 24, "depth 1 lit {lit} pixels");
     // Depth 2 adds direct light: the floor is lit but the ceiling (which the light
     // cannot see) stays black apart from the luminaire itself.
-    let film2 = render_film(&mut scene, 24, 24, 4, 0, Spectral::Hwss, 2, 0);
+    let film2 = TestRender::at(24, 24).spp(4).max_depth(2).film(&mut scene);
     let m2 = film2.mean();
     let ceiling_corner = m2[24 + 12]; // row 1, column 12: ceiling in front of the light
     assert_eq!(ceiling_corner, [0.0, 0.0, 0.0], "ceiling lit at depth 2");
     let floor = m2[22 * 24 + 4]; // the floor in front of the red wall
     assert!(floor[1] > 0.0, "floor dark at depth 2");
     // Depth 3 lights the ceiling through one bounce.
-    let film3 = render_film(&mut scene, 24, 24, 4, 0, Spectral::Hwss, 3, 0);
+    let film3 = TestRender::at(24, 24).spp(4).max_depth(3).film(&mut scene);
     assert!(film3.mean()[24 + 12][1] > 0.0, "ceiling dark at depth 3");
 }
 
 #[test]
 fn same_seed_same_image_whatever_the_thread_count() {
     let mut scene = scene_file("cornell-box.toml");
-    let a = render_film(&mut scene, 16, 16, 4, 42, Spectral::Hwss, -1, 1);
-    let b = render_film(&mut scene, 16, 16, 4, 42, Spectral::Hwss, -1, 2);
+    let a = TestRender::at(16, 16)
+        .spp(4)
+        .seed(42)
+        .threads(1)
+        .film(&mut scene);
+    let b = TestRender::at(16, 16)
+        .spp(4)
+        .seed(42)
+        .threads(2)
+        .film(&mut scene);
     assert_eq!(a.mean(), b.mean());
-    let c = render_film(&mut scene, 16, 16, 4, 43, Spectral::Hwss, -1, 2);
+    let c = TestRender::at(16, 16)
+        .spp(4)
+        .seed(43)
+        .threads(2)
+        .film(&mut scene);
     assert_ne!(a.mean(), c.mean());
 }
 
 #[test]
 fn hwss_and_mono_agree_on_the_cornell_box() {
     let mut scene = scene_file("cornell-box.toml");
-    let h = render_film(&mut scene, 32, 32, 64, 7, Spectral::Hwss, -1, 0);
-    let m = render_film(&mut scene, 32, 32, 64, 8, Spectral::Mono, -1, 0);
+    let h = TestRender::at(32, 32).spp(64).seed(7).film(&mut scene);
+    let m = TestRender::at(32, 32)
+        .spp(64)
+        .seed(8)
+        .spectral(Spectral::Mono)
+        .film(&mut scene);
     let hm = region_mean(&h, &all_pixels(&h));
     let mm = region_mean(&m, &all_pixels(&m));
     assert_agree("HWSS vs mono, image mean", hm, mm, 4.0);

@@ -148,7 +148,7 @@ fn a_failed_write_leaves_the_previous_file_whole() {
         std::fs::write(tmp, &before[..before.len() / 2]).unwrap();
         Err("No space left on device".into())
     });
-    let e = r.unwrap_err();
+    let e = r.unwrap_err().to_string();
     assert!(e.contains("img.exr") && e.contains("No space"), "{e}");
     assert_eq!(std::fs::read(&target).unwrap(), before);
     assert_eq!(pixels(&target), px);
@@ -418,7 +418,9 @@ fn bounded_fuzz_of_the_scene_parser() {
         }
         let t0 = Instant::now();
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            stokes::scene::Scene::from_str(&input, path).map(|_| ())
+            stokes::scene::Scene::from_str(&input, path)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
         }));
         let dt = t0.elapsed().as_secs_f64();
         if dt > slowest.0 {
@@ -572,7 +574,7 @@ fn exr_header_records_the_render() {
         ],
     );
     let h = header(&out);
-    let hash = stokes::merge::scene_hash_text(&std::fs::read(cornell()).unwrap());
+    let hash = stokes::header::scene_hash(&std::fs::read(cornell()).unwrap());
     for (k, v) in [
         ("spp", "3"),
         ("seed", "11"),
@@ -608,7 +610,9 @@ fn time_budget_renders_whole_passes_within_it() {
     let spp: u32 = h["spp"].parse().unwrap();
     let secs: f64 = h["render_seconds"].parse().unwrap();
     assert!(spp >= 2, "only {spp} spp in 0.5 s at 16x16");
-    assert!(secs <= 1.5, "a 0.5 s budget took {secs} s");
+    // How far past the budget the last pass ends depends on the machine's load; what
+    // holds everywhere is tested in-process below (every pass starts within the budget).
+    assert!(secs > 0.0, "render_seconds {secs}");
     assert_eq!(h["stopped"], "time budget");
     assert_eq!(h["time_budget"], "0.5");
     assert!(
@@ -632,6 +636,43 @@ fn time_budget_renders_whole_passes_within_it() {
     for bad in ["0", "-1", "nan", "inf", "soon"] {
         let (ok, _, err) = run(stokes().args(["render", &s(&cornell()), "--time", bad]));
         assert!(!ok && err.contains("--time"), "--time {bad}: {err}");
+    }
+}
+
+#[test]
+fn under_a_time_budget_every_pass_starts_within_it() {
+    // A pass starts only if, at the mean pass time so far, it ends within the budget. So
+    // with pass end times t_1 … t_n, the check before pass n saw an elapsed time e ≥ t_{n−1}
+    // and passed: t_{n−1} + t_{n−1}/(n − 1) ≤ e + e/(n − 1) ≤ budget. That holds however
+    // loaded the machine is (a wall-clock bound on the total would not).
+    use stokes::integrator::render::{render_progressive, PassDone, Progressive, Stopped};
+    let mut scene = scene_file("cornell-box.toml");
+    scene.set_resolution(16, 16);
+    let opts = stokes::integrator::render::RenderOptions {
+        threads: 2,
+        ..Default::default()
+    };
+    for budget in [0.05, 0.2] {
+        let mut ends: Vec<f64> = Vec::new();
+        let prog = Progressive {
+            time_budget: Some(budget),
+            batch: 1,
+            ..Default::default()
+        };
+        let done = render_progressive(&scene, &opts, &prog, &|| {}, &mut |p: PassDone| {
+            ends.push(p.seconds)
+        })
+        .unwrap();
+        assert_eq!(done.stopped, Stopped::TimeBudget);
+        assert_eq!(ends.len() as u32, done.passes);
+        let n = ends.len();
+        assert!(n >= 2, "budget {budget}: only {n} passes");
+        let before_last = ends[n - 2];
+        assert!(
+            before_last + before_last / (n - 1) as f64 <= budget,
+            "budget {budget}: pass {n} started although {before_last:.4} s + the mean pass time exceeded it"
+        );
+        assert_eq!(done.render.film.spp as usize, n);
     }
 }
 
@@ -1047,29 +1088,26 @@ emission = { radiance = 1e20, scale = 1e10, two_sided = true }
 /// limits (`MAX_RADIANCE`, `MAX_COEFFICIENT` in `scene`) leave the estimate headroom.
 #[test]
 fn renders_at_the_load_limits_stay_finite() {
-    use stokes::integrator::{render::RenderOptions, Rays, Shifting, Spectral};
     use stokes::medium::Tracking;
-    let opts = |tracking, spectral, rays| RenderOptions {
-        width: 8,
-        height: 8,
-        spp: 8,
-        seed: 3,
-        max_depth: -1,
-        spectral,
-        shifting: Shifting::Independent,
-        tracking: Some(tracking),
-        threads: 2,
-        rays,
-        dispersion: Default::default(),
+    use stokes::method::{Method, Rays, Spectral};
+    let opts = |tracking, spectral, rays| {
+        let method = Method {
+            spectral,
+            tracking: Some(tracking),
+            rays,
+            ..Method::default()
+        };
+        TestRender::at(8, 8)
+            .spp(8)
+            .seed(3)
+            .threads(2)
+            .method(method)
     };
     for tracking in [Tracking::Classic, Tracking::Max, Tracking::FluoAware] {
         for spectral in [Spectral::Hwss, Spectral::Mono] {
             for rays in [Rays::Single, Rays::Packet] {
-                // render_opts asserts that no sample was dropped.
-                let film = render_opts(
-                    &mut scene_from(AT_THE_LIMITS),
-                    &opts(tracking, spectral, rays),
-                );
+                // TestRender::film asserts that no sample was dropped.
+                let film = opts(tracking, spectral, rays).film(&mut scene_from(AT_THE_LIMITS));
                 let mean = film.mean();
                 assert!(mean.iter().flatten().any(|&v| v > 0.0), "a black image");
             }
@@ -1079,7 +1117,8 @@ fn renders_at_the_load_limits_stay_finite() {
     let mut scene = scene_from(AT_THE_LIMITS);
     scene.lights.emitters[0].scale *= 1e8;
     let o = opts(Tracking::FluoAware, Spectral::Hwss, Rays::Single);
-    let r = stokes::integrator::render::render(&scene, &o, &|| {}).unwrap();
+    scene.set_resolution(8, 8);
+    let r = stokes::integrator::render::render(&scene, &o.opts, &|| {}).unwrap();
     assert!(
         r.stats.nonfinite > 0,
         "radiance 1e38 gave no non-finite sample"
@@ -1088,7 +1127,8 @@ fn renders_at_the_load_limits_stay_finite() {
     let past = AT_THE_LIMITS.replace("scale = 1e10", "scale = 1e16");
     let e = stokes::scene::Scene::from_str(&past, Path::new("past.toml"))
         .err()
-        .unwrap();
+        .unwrap()
+        .to_string();
     assert!(
         e.contains("shapes[2].emission.scale: expected radiance × scale ≤ 1e30"),
         "{e}"

@@ -6,6 +6,8 @@
 //! A lane that cannot follow the hero (a refraction through a dispersive interface) gets
 //! value 0 and pdf 0: it leaves the MIS sum instead of receiving an infinite weight.
 //!
+//! # Scene syntax
+//! (parsed by [`Material::from_desc`] in [`desc`]; spectra as in [`crate::spectrum::desc`])
 //! ```toml
 //! [materials.white]
 //! type = "diffuse"
@@ -13,9 +15,18 @@
 //! [materials.mirror]
 //! type = "mirror"              # reflectance optional, default 1
 //! [materials.glass]
-//! type = "dielectric"
+//! type = "dielectric"          # ior: a number, { cauchy = [A, B] } (B in nm²) or Sellmeier
 //! ior = { sellmeier = { b = [1.03961212, 0.231792344, 1.01046945], c = [0.00600069867, 0.0200179144, 103.560653] } }
+//! ext_ior = 1.0                # optional, the index outside
+//! [materials.highlighter]
+//! type = "fluorescent_diffuse" # a dye over a reflectance, or matrix = "measured.csv"
+//! reflectance = 0.8
+//! dye = { absorption = { narrow_band = 440, fwhm = 60 }, emission = { narrow_band = 520, fwhm = 40 }, quantum_yield = 0.9 }
 //! ```
+
+pub mod desc;
+
+pub use desc::{DyeDesc, IorDesc, IorTable, MaterialDesc, SellmeierDesc};
 
 use crate::fluoro::Reradiation;
 use crate::spectrum::Spectrum;

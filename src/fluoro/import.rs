@@ -1,7 +1,9 @@
 //! Reading a measured re-radiation matrix from CSV text (format in the parent module docs).
 
 use super::{Reradiation, MAX_CELLS};
+use crate::error::{Detail, Error};
 use crate::spectrum::{Spectrum, Tabulated};
+use crate::Result;
 
 /// What the importer changed: entries set to 0. Each clamped entry is counted once; one
 /// that is both negative and below the diagonal counts as anti-Stokes.
@@ -40,19 +42,33 @@ fn fields(line: &str) -> Vec<&str> {
     }
 }
 
-fn number(field: &str, source: &str, line_no: usize, column: usize) -> Result<f32, String> {
+/// An error at line `line_no` of `source`.
+fn at(source: &str, line_no: usize, detail: impl Into<Detail>) -> Error {
+    Error::file(source, Some(line_no), detail)
+}
+
+fn number(field: &str, source: &str, line_no: usize, column: usize) -> Result<f32> {
     let v: f32 = field.parse().map_err(|_| {
-        format!("{source}:{line_no}: expected a number in column {column}, found '{field}'")
+        at(
+            source,
+            line_no,
+            Detail::expected(format!("a number in column {column}"), format!("'{field}'")),
+        )
     })?;
     if !v.is_finite() {
-        return Err(format!(
-            "{source}:{line_no}: expected a finite number in column {column}, found '{field}'"
+        return Err(at(
+            source,
+            line_no,
+            Detail::expected(
+                format!("a finite number in column {column}"),
+                format!("'{field}'"),
+            ),
         ));
     }
     Ok(v)
 }
 
-pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportReport), String> {
+pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportReport)> {
     // The header: (line number, emission cell centres).
     let mut header: Option<(usize, Vec<f32>)> = None;
     let mut rows: Vec<Vec<f32>> = Vec::new();
@@ -67,17 +83,24 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
         let fields = fields(line);
         let Some((header_line, centres)) = &header else {
             if fields[0].parse::<f32>().is_ok() {
-                return Err(format!(
-                    "{source}:{line_no}: expected a header line 'nm, <emission wavelengths>' \
-                     (a label, then the emission cell centres in nm), found a number in \
-                     column 1"
+                return Err(at(
+                    source,
+                    line_no,
+                    Detail::expected(
+                        "a header line 'nm, <emission wavelengths>' (a label, then the \
+                         emission cell centres in nm)",
+                        "a number in column 1",
+                    ),
                 ));
             }
             if fields.len() < 3 {
-                return Err(format!(
-                    "{source}:{line_no}: expected a header line 'nm, <emission wavelengths>' \
-                     with at least 2 wavelengths, found {} field(s)",
-                    fields.len()
+                return Err(at(
+                    source,
+                    line_no,
+                    Detail::expected(
+                        "a header line 'nm, <emission wavelengths>' with at least 2 wavelengths",
+                        format!("{} field(s)", fields.len()),
+                    ),
                 ));
             }
             let mut w = Vec::with_capacity(fields.len() - 1);
@@ -90,20 +113,29 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
         };
         let n = centres.len();
         if fields.len() != n + 1 {
-            return Err(format!(
-                "{source}:{line_no}: expected {} fields (an excitation wavelength, then one entry \
-                 for each of the {n} emission wavelengths of the header on line {header_line}), \
-                 found {}",
-                n + 1,
-                fields.len()
+            return Err(at(
+                source,
+                line_no,
+                Detail::expected(
+                    format!(
+                        "{} fields (an excitation wavelength, then one entry for each of the {n} \
+                         emission wavelengths of the header on line {header_line})",
+                        n + 1
+                    ),
+                    fields.len(),
+                ),
             ));
         }
         let r = rows.len();
         if r == n {
-            return Err(format!(
-                "{source}:{line_no}: one excitation row too many: the header on line \
-                 {header_line} has {n} emission wavelengths and the excitation and emission \
-                 grids must be the same"
+            return Err(at(
+                source,
+                line_no,
+                format!(
+                    "one excitation row too many: the header on line {header_line} has {n} \
+                     emission wavelengths and the excitation and emission grids must be the \
+                     same"
+                ),
             ));
         }
         let mut row = Vec::with_capacity(n + 1);
@@ -112,13 +144,17 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
         }
         let h = (centres[n - 1] - centres[0]) / (n - 1) as f32;
         if (row[0] - centres[r]).abs() > 1e-3 * h {
-            return Err(format!(
-                "{source}:{line_no}: excitation wavelength {} nm differs from the emission \
-                 grid: row {} must be at {} nm (the excitation wavelengths must be the emission \
-                 wavelengths of the header on line {header_line}, in order)",
-                row[0],
-                r + 1,
-                centres[r]
+            return Err(at(
+                source,
+                line_no,
+                format!(
+                    "excitation wavelength {} nm differs from the emission grid: row {} must \
+                     be at {} nm (the excitation wavelengths must be the emission wavelengths \
+                     of the header on line {header_line}, in order)",
+                    row[0],
+                    r + 1,
+                    centres[r]
+                ),
             ));
         }
         rows.push(row);
@@ -126,24 +162,30 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
     }
 
     let Some((header_line, centres)) = header else {
-        return Err(format!(
-            "{source}: no data: expected a header line 'nm, <emission wavelengths>' and one row \
-             per excitation wavelength"
+        return Err(Error::file(
+            source,
+            None,
+            "no data: expected a header line 'nm, <emission wavelengths>' and one row per \
+             excitation wavelength",
         ));
     };
     let n = centres.len();
     if rows.len() < n {
-        let at = if rows.is_empty() {
+        let line_no = if rows.is_empty() {
             header_line
         } else {
             last_line
         };
-        return Err(format!(
-            "{source}:{at}: the matrix ends after {} excitation row(s), but the header on line \
-             {header_line} has {n} emission wavelengths (the excitation and emission grids must \
-             be the same; the next row should be at {} nm)",
-            rows.len(),
-            centres[rows.len()]
+        return Err(at(
+            source,
+            line_no,
+            format!(
+                "the matrix ends after {} excitation row(s), but the header on line \
+                 {header_line} has {n} emission wavelengths (the excitation and emission grids \
+                 must be the same; the next row should be at {} nm)",
+                rows.len(),
+                centres[rows.len()]
+            ),
         ));
     }
 
@@ -179,7 +221,8 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
     values.push(diag[0]);
     values.extend_from_slice(&diag);
     values.push(diag[n - 1]);
-    let d = Tabulated::new(knots, values).map_err(|e| format!("{source}: diagonal: {e}"))?;
+    let d = Tabulated::new(knots, values)
+        .map_err(|e| Error::file(source, None, format!("diagonal: {e}")))?;
 
     let mut r = Reradiation::diagonal_only(Spectrum::Tabulated(d));
     r.set_grid(centres[0] - 0.5 * h, h, n);
@@ -188,35 +231,42 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
 }
 
 /// Checks that the cell centres are increasing and evenly spaced (to 0.1% of a step).
-fn check_grid(w: &[f32], source: &str, line_no: usize) -> Result<(), String> {
+fn check_grid(w: &[f32], source: &str, line_no: usize) -> Result<()> {
     let n = w.len();
     if n > MAX_CELLS {
-        return Err(format!(
-            "{source}:{line_no}: {n} emission wavelengths is more than the {MAX_CELLS} cells \
-             supported"
+        return Err(at(
+            source,
+            line_no,
+            format!("{n} emission wavelengths is more than the {MAX_CELLS} cells supported"),
         ));
     }
     let h = (f64::from(w[n - 1]) - f64::from(w[0])) / (n - 1) as f64;
     if h <= 0.0 {
-        return Err(format!(
-            "{source}:{line_no}: emission wavelengths must increase, found {} nm first and {} \
-             nm last",
-            w[0],
-            w[n - 1]
+        return Err(at(
+            source,
+            line_no,
+            format!(
+                "emission wavelengths must increase, found {} nm first and {} nm last",
+                w[0],
+                w[n - 1]
+            ),
         ));
     }
     for (k, &x) in w.iter().enumerate() {
         let expected = f64::from(w[0]) + k as f64 * h;
         if (f64::from(x) - expected).abs() > 1e-3 * h {
-            return Err(format!(
-                "{source}:{line_no}: emission wavelengths must be evenly spaced (one per cell): \
-                 column {} has {x} nm where a uniform grid from {} to {} nm in steps of {} nm \
-                 has {} nm",
-                k + 2,
-                w[0],
-                w[n - 1],
-                h as f32,
-                expected as f32
+            return Err(at(
+                source,
+                line_no,
+                format!(
+                    "emission wavelengths must be evenly spaced (one per cell): column {} has \
+                     {x} nm where a uniform grid from {} to {} nm in steps of {} nm has {} nm",
+                    k + 2,
+                    w[0],
+                    w[n - 1],
+                    h as f32,
+                    expected as f32
+                ),
             ));
         }
     }

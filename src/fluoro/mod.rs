@@ -1,7 +1,7 @@
 //! Re-radiation (bispectral) data and wavelength-shift sampling for camera paths.
 //!
 //! A fluorescent surface re-radiates with M(λi → λo) = D(λo)·δ(λi − λo) + F(λi, λo): the
-//! outgoing spectral radiance at λo is D(λo)·L(λo) + ∫ F(λi, λo) L(λi) dλi (DESIGN.md §5).
+//! outgoing spectral radiance at λo is D(λo)·L(λo) + ∫ F(λi, λo) L(λi) dλi (docs/design.md, "Fluorescent events").
 //!
 //! # Units and conventions
 //! - Wavelengths are in nm. D (the diagonal, the ordinary reflectance) is dimensionless.
@@ -53,9 +53,31 @@ mod import;
 
 pub use import::ImportReport;
 
+use crate::error::{Detail, Error, Key, KeyError};
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_RANGE};
 use glam::Vec4;
 use std::path::Path;
+
+/// Checks a dye's quantum yield and grid cell width (`dye` is the dye's key, on a surface
+/// or in a medium); returns the cell width, 2 nm unless given.
+pub fn dye_cell_width(
+    dye: &Key,
+    quantum_yield: f32,
+    cell_nm: Option<f32>,
+) -> Result<f32, KeyError> {
+    if !(0.0..=1.0).contains(&quantum_yield) {
+        return Err(dye
+            .field("quantum_yield")
+            .expected("a number in [0, 1]", quantum_yield));
+    }
+    let cell = cell_nm.unwrap_or(2.0);
+    if !(cell.is_finite() && (0.5..=50.0).contains(&cell)) {
+        return Err(dye
+            .field("cell_nm")
+            .expected("a width in [0.5, 50] nm", cell));
+    }
+    Ok(cell)
+}
 
 /// The most cells a grid may have (an n×n matrix and an n×n table of CDFs are stored).
 pub const MAX_CELLS: usize = 1024;
@@ -123,11 +145,11 @@ fn check_stokes_shift(
     e: &[f64],
     w: &[f64],
     tail: &[f64],
-) -> Result<(), String> {
+) -> Result<(), Detail> {
     let Some(first_absorbed) = a.iter().position(|&v| v > 0.0) else {
-        return Err(format!(
+        return Err(Detail::Text(format!(
             "dye absorption is zero at every cell centre over {LAMBDA_MIN}–{LAMBDA_MAX} nm: the dye would do nothing"
-        ));
+        )));
     };
     let absorbed: f64 = a.iter().zip(w).map(|(a, w)| a * w).sum();
     let reemittable: f64 = (0..a.len())
@@ -142,10 +164,13 @@ fn check_stokes_shift(
         } else {
             format!("only {share:.1e}")
         };
-        return Err(format!(
-            "expected emission at longer wavelengths than absorption (a Stokes shift), found absorption from {} nm and emission up to {} nm, so that {found} of the absorbed light can be re-emitted: the dye would do nothing visible",
-            grid.cell_bounds(first_absorbed).0,
-            grid.cell_bounds(last_emitted).1
+        return Err(Detail::expected(
+            "emission at longer wavelengths than absorption (a Stokes shift)",
+            format!(
+                "absorption from {} nm and emission up to {} nm, so that {found} of the absorbed light can be re-emitted: the dye would do nothing visible",
+                grid.cell_bounds(first_absorbed).0,
+                grid.cell_bounds(last_emitted).1
+            ),
         ));
     }
     Ok(())
@@ -189,7 +214,7 @@ impl Reradiation {
         emission: &Spectrum,
         quantum_yield: f32,
         cell_nm: f32,
-    ) -> Result<Reradiation, String> {
+    ) -> Result<Reradiation, Detail> {
         Self::from_dye_with_scaling(
             diagonal,
             absorption,
@@ -228,18 +253,18 @@ impl Reradiation {
         quantum_yield: f32,
         cell_nm: f32,
         energy_scaling: bool,
-    ) -> Result<Reradiation, String> {
+    ) -> Result<Reradiation, Detail> {
         if !(0.0..=1.0).contains(&quantum_yield) {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "dye quantum yield must be in [0, 1], found {quantum_yield}"
-            ));
+            )));
         }
         let min_cell = LAMBDA_RANGE / MAX_CELLS as f32;
         if !(cell_nm.is_finite() && cell_nm >= min_cell) {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "dye cell width must be a number of nm ≥ {min_cell} (at most {MAX_CELLS} cells \
                  over {LAMBDA_MIN}–{LAMBDA_MAX} nm), found {cell_nm}"
-            ));
+            )));
         }
         // ceil, forgiving a rounding error when the width divides the range.
         let n = ((LAMBDA_RANGE / cell_nm) - 1e-4).ceil().max(1.0) as usize;
@@ -255,15 +280,15 @@ impl Reradiation {
             let c = 0.5 * (l0 + l1);
             let av = absorption.eval(c);
             if !(av.is_finite() && (-1e-6..=1.0 + 1e-6).contains(&av)) {
-                return Err(format!(
+                return Err(Detail::Text(format!(
                     "dye absorption must be a fraction in [0, 1], found {av} at {c} nm"
-                ));
+                )));
             }
             let ev = emission.eval(c);
             if !(ev.is_finite() && ev >= 0.0) {
-                return Err(format!(
+                return Err(Detail::Text(format!(
                     "dye emission must be finite and non-negative, found {ev} at {c} nm"
-                ));
+                )));
             }
             a[k] = f64::from(av.clamp(0.0, 1.0));
             e[k] = f64::from(ev);
@@ -271,9 +296,9 @@ impl Reradiation {
             mid[k] = f64::from(c);
         }
         if e.iter().all(|&v| v == 0.0) {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "dye emission is zero at every cell centre over {LAMBDA_MIN}–{LAMBDA_MAX} nm"
-            ));
+            )));
         }
         // tail[i] = ∫_{cells above i} E = Σ_{o > i} E_o w_o.
         let mut tail = vec![0.0f64; n];
@@ -299,14 +324,15 @@ impl Reradiation {
 
     /// A measured matrix from a CSV file (format in the module docs). Returns the counts of
     /// entries set to 0 so the caller can report them. Errors name the file and line.
-    pub fn from_csv(path: &Path) -> Result<(Reradiation, ImportReport), String> {
+    pub fn from_csv(path: &Path) -> crate::Result<(Reradiation, ImportReport)> {
         let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+            .map_err(|e| Error::file(path, None, format!("cannot read: {e}")))?;
         Self::from_csv_str(&text, &path.display().to_string())
     }
 
-    /// [`Self::from_csv`] on text; `source` (usually the file name) prefixes every error.
-    pub fn from_csv_str(text: &str, source: &str) -> Result<(Reradiation, ImportReport), String> {
+    /// [`Self::from_csv`] on text; `source` (usually the file name) is the file every error
+    /// names.
+    pub fn from_csv_str(text: &str, source: &str) -> crate::Result<(Reradiation, ImportReport)> {
         import::parse(text, source)
     }
 
@@ -597,7 +623,7 @@ mod tests {
             (band(0.44, 0.02), band(520.0, 30.0), "absorption is zero"),
         ];
         for (a, e, fragment) in cases {
-            let Err(err) = dye(&a, &e, 0.9) else {
+            let Err(err) = dye(&a, &e, 0.9).map_err(|e| e.to_string()) else {
                 panic!("accepted {a:?} / {e:?}")
             };
             assert!(err.contains(fragment), "{a:?} / {e:?}: {err}");

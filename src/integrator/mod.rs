@@ -21,102 +21,12 @@ use crate::accel::Ray;
 use crate::fluoro::Reradiation;
 use crate::medium::tracking::{self, Tracking};
 use crate::medium::Homogeneous;
+use crate::method::{Resolved, Shifting};
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
 use path::Path;
-
-/// How wavelengths are sampled per path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Spectral {
-    /// Hero wavelength spectral sampling: four wavelengths per path.
-    Hwss,
-    /// One wavelength per path.
-    Mono,
-}
-
-impl Spectral {
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Spectral::Hwss => "hwss",
-            Spectral::Mono => "mono",
-        }
-    }
-}
-
-/// How the four lanes of a path move at a fluorescent vertex (HWSS only).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Shifting {
-    /// Every lane samples its own shift with its own random numbers, weighted f_k/p_k.
-    Independent,
-    /// Every lane moves by the hero's shift Δλ; the shift pdfs enter the MIS weights.
-    Constant,
-}
-
-impl Shifting {
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Shifting::Independent => "independent",
-            Shifting::Constant => "constant",
-        }
-    }
-}
-
-/// How the rays of a render are traced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Rays {
-    /// Four paths travel together through Embree's 4-wide queries (a 2×2 pixel quad for
-    /// camera rays; surviving paths regrouped into full packets at every bounce). The
-    /// default: it measures faster (README, "Packets against single rays").
-    #[default]
-    Packet,
-    /// Like `packet`, but the four paths of a quad stay together and ended paths leave
-    /// their lanes empty (no regrouping; to measure what regrouping buys).
-    Lockstep,
-    /// One path at a time, depth first, through single-ray queries.
-    Single,
-}
-
-impl Rays {
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Rays::Packet => "packet",
-            Rays::Lockstep => "lockstep",
-            Rays::Single => "single",
-        }
-    }
-}
-
-/// What a path does at a dispersive refraction, where its four wavelengths leave in four
-/// directions (HWSS only).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Dispersion {
-    /// Keep the hero, drop the three secondary lanes (pbrt-v4 and Mitsuba 3 do this).
-    Drop,
-    /// Split the path into four single-wavelength paths that share the prefix's MIS
-    /// weights; in packet mode they travel on as one packet. The default: less colour
-    /// noise at equal time.
-    #[default]
-    Split,
-}
-
-impl Dispersion {
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Dispersion::Drop => "drop",
-            Dispersion::Split => "split",
-        }
-    }
-}
 
 /// Counters of one render (summed over threads).
 #[derive(Debug, Default, Clone, Copy)]
@@ -152,19 +62,14 @@ pub(crate) fn spawn_eps(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
-/// Everything that selects an estimator, besides the random numbers.
+/// Everything that selects an estimator, besides the random numbers: the method (with
+/// its tracking resolved once per render) and the path depth.
 #[derive(Debug, Clone, Copy)]
 pub struct PathOptions {
-    /// Wavelengths per path.
-    pub spectral: Spectral,
-    /// Lane shifting at fluorescent events (HWSS).
-    pub shifting: Shifting,
-    /// Distance sampling in media.
-    pub tracking: Tracking,
+    /// The method.
+    pub method: Resolved,
     /// Path segments from the camera, −1 for unbounded.
     pub max_depth: i32,
-    /// Dispersive refraction: drop the secondary lanes or split the path.
-    pub dispersion: Dispersion,
 }
 
 /// The last emitter's spectral radiance at the path's wavelengths: a path meets the same
@@ -406,7 +311,7 @@ fn run_single<const MEDIA: bool>(
                 }
                 Some(m) => loop {
                     let hit = scene.accel.intersect1(&s.ray);
-                    match m.segment(scene, &mut s.ray, hit, opts.tracking, s.contribution) {
+                    match m.segment(scene, &mut s.ray, hit, opts.method.tracking, s.contribution) {
                         ShadowStep::Blocked => break,
                         ShadowStep::Reached(c) => {
                             p.l += c;

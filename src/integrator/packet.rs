@@ -239,7 +239,7 @@ impl Wavefront {
                 for (k, (i, s)) in group.iter_mut().enumerate() {
                     let Some(m) = s.media.as_mut() else { continue };
                     let hit = packet.hit(k);
-                    match m.segment(scene, &mut s.ray, hit, opts.tracking, s.contribution) {
+                    match m.segment(scene, &mut s.ray, hit, opts.method.tracking, s.contribution) {
                         ShadowStep::Blocked => {}
                         ShadowStep::Reached(c) => self.paths[*i as usize].l += c,
                         ShadowStep::Continue => {

@@ -12,12 +12,13 @@
 //! at a time ([`MediaShadow`]); the drivers trace each segment as a query of its own.
 
 use super::{
-    medium_after_crossing, russian_roulette, shadow_ray, shift_wavelengths, spawn_eps, Dispersion,
-    EmissionCache, MediaShadow, PathOptions, PathStats, PrevVertex, ShiftModel, Shifting, Spectral,
+    medium_after_crossing, russian_roulette, shadow_ray, shift_wavelengths, spawn_eps,
+    EmissionCache, MediaShadow, PathOptions, PathStats, PrevVertex, ShiftModel,
 };
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Lobe, Material};
 use crate::medium::tracking::{self, DistanceSample};
+use crate::method::{Dispersion, Shifting, Spectral};
 use crate::sampler::{mix64, LazyStream, Pcg32};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
@@ -77,7 +78,7 @@ impl Path {
         shift_rng: LazyStream,
         slot: u32,
     ) -> Path {
-        let beta = match opts.spectral {
+        let beta = match opts.method.spectral {
             Spectral::Hwss => Vec4::ONE,
             Spectral::Mono => Vec4::X,
         };
@@ -97,8 +98,8 @@ impl Path {
             le_cache: EmissionCache::default(),
             rng,
             shift_rng,
-            lanes: match opts.spectral {
-                Spectral::Hwss => opts.shifting,
+            lanes: match opts.method.spectral {
+                Spectral::Hwss => opts.method.shifting,
                 Spectral::Mono => Shifting::Independent,
             },
         }
@@ -142,9 +143,9 @@ impl Path {
             let med = &scene.media[m as usize];
             let (st, ss) = (med.sigma_t_hat(self.lambda), med.sigma_s_hat(self.lambda));
             let d = h.t * ray.dir.length();
-            match tracking::sample_distance(opts.tracking, st, ss, d, self.rng.next_f32()) {
+            match tracking::sample_distance(opts.method.tracking, st, ss, d, self.rng.next_f32()) {
                 DistanceSample::Collision { t } => {
-                    let pdf = tracking::pdf_collision(opts.tracking, st, ss, d, t);
+                    let pdf = tracking::pdf_collision(opts.method.tracking, st, ss, d, t);
                     if pdf.x <= 0.0 {
                         return false;
                     }
@@ -204,7 +205,7 @@ impl Path {
                     return true;
                 }
                 DistanceSample::Surface => {
-                    let ps = tracking::prob_surface(opts.tracking, st, ss, d);
+                    let ps = tracking::prob_surface(opts.method.tracking, st, ss, d);
                     if ps.x <= 0.0 {
                         return false;
                     }
@@ -327,7 +328,7 @@ impl Path {
             return false;
         }
         let refracts = ng.dot(bs.wi) * ng.dot(wo) < 0.0;
-        if opts.dispersion == Dispersion::Split
+        if opts.method.dispersion == Dispersion::Split
             && bs.specular
             && refracts
             && (1..4).any(|k| self.ratio[k] != 0.0 && bs.pdf[k] == 0.0)

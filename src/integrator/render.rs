@@ -6,43 +6,85 @@
 
 use super::packet::{Grouping, Wavefront};
 use super::path::Path;
-use super::{Dispersion, PathOptions, PathStats, Rays, Shifting, Spectral};
+use super::{PathOptions, PathStats};
 use crate::color;
-use crate::medium::tracking::Tracking;
+use crate::error::{Detail, Error};
+use crate::method::{Method, Rays, Spectral};
 use crate::sampler::{LazyStream, Pcg32};
+use crate::scene::RenderDesc;
 use crate::scene::Scene;
 use crate::spectrum::{self, SampledWavelengths};
+use crate::Result;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-/// What to render and how.
-#[derive(Debug, Clone)]
+/// What to render and how. The image size is the scene camera's
+/// ([`Scene::set_resolution`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
-    /// Image width.
-    pub width: u32,
-    /// Image height.
-    pub height: u32,
     /// Samples per pixel.
     pub spp: u32,
     /// Seed of the random streams.
     pub seed: u64,
     /// Path segments from the camera, −1 for unbounded.
     pub max_depth: i32,
-    /// Wavelength sampling.
-    pub spectral: Spectral,
-    /// Lane shifting at fluorescent vertices (HWSS).
-    pub shifting: Shifting,
-    /// Distance sampling in media (`None`: the scene's default, see
-    /// [`Scene::default_tracking`]).
-    pub tracking: Option<Tracking>,
     /// Worker threads (0 = one per core).
     pub threads: usize,
-    /// Packets of four paths or single rays.
-    pub rays: Rays,
-    /// Dispersive refraction: drop the secondary lanes or split the path.
-    pub dispersion: Dispersion,
+    /// The method; its tracking, if left open, is the scene's default.
+    pub method: Method,
+}
+
+impl Default for RenderOptions {
+    /// The scene file's defaults (16 spp, seed 0, unbounded depth), one thread per core,
+    /// the default method.
+    fn default() -> RenderOptions {
+        let d = RenderDesc::default();
+        RenderOptions {
+            spp: d.spp,
+            seed: d.seed,
+            max_depth: d.max_depth,
+            threads: 0,
+            method: Method::default(),
+        }
+    }
+}
+
+impl RenderOptions {
+    /// The scene file's `[render]` defaults with the default method.
+    pub fn for_scene(scene: &Scene) -> RenderOptions {
+        RenderOptions {
+            spp: scene.render.spp,
+            seed: scene.render.seed,
+            max_depth: scene.render.max_depth,
+            ..RenderOptions::default()
+        }
+    }
+
+    /// Checks the values a render cannot take; the error is an [`Error::Option`] of the
+    /// setting's command-line option.
+    pub fn validate(&self) -> Result<()> {
+        if self.max_depth == 0 || self.max_depth < -1 {
+            return Err(Error::option(
+                "--max-depth",
+                Detail::Expected {
+                    expected: "−1 or a depth ≥ 1".into(),
+                    found: self.max_depth.to_string(),
+                },
+            ));
+        }
+        Ok(())
+    }
+
+    /// The estimator these options select, with the scene's default tracking resolved
+    /// (once per render, not per sample).
+    pub fn path_options(&self, scene: &Scene) -> PathOptions {
+        PathOptions {
+            method: self.method.resolve(scene),
+            max_depth: self.max_depth,
+        }
+    }
 }
 
 /// Per-pixel sums of linear sRGB samples: the mean and the variance of the mean.
@@ -72,7 +114,7 @@ impl Film {
     }
 
     /// An empty film, or an error naming the size if its memory cannot be had.
-    pub fn try_new(width: u32, height: u32) -> Result<Film, String> {
+    pub fn try_new(width: u32, height: u32) -> Result<Film> {
         let n = width as usize * height as usize;
         let alloc = || -> Option<Vec<[f64; 3]>> {
             let mut v = Vec::new();
@@ -81,10 +123,10 @@ impl Film {
             Some(v)
         };
         let fail = || {
-            format!(
+            Error::Other(format!(
                 "cannot allocate a film of {width}x{height} pixels ({:.1} GB)",
                 n as f64 * 48.0 / 1e9
-            )
+            ))
         };
         let sum = alloc().ok_or_else(fail)?;
         let sum_sq = alloc().ok_or_else(fail)?;
@@ -131,20 +173,6 @@ pub struct RenderResult {
     pub stats: PathStats,
     /// Wall-clock seconds spent rendering.
     pub seconds: f64,
-}
-
-impl RenderOptions {
-    /// The estimator these options select, with the scene's default tracking resolved
-    /// (once per render, not per sample).
-    pub fn path_options(&self, scene: &Scene) -> PathOptions {
-        PathOptions {
-            spectral: self.spectral,
-            shifting: self.shifting,
-            tracking: self.tracking.unwrap_or_else(|| scene.default_tracking().0),
-            max_depth: self.max_depth,
-            dispersion: self.dispersion,
-        }
-    }
 }
 
 /// One pixel sample: linear sRGB, or `None` if the estimate is NaN or infinite.
@@ -197,12 +225,12 @@ fn start_sample(
     sample: u32,
     slot: u32,
 ) -> (Path, Vec4) {
-    let pixel = (y as u64) * opts.width as u64 + x as u64;
+    let pixel = (y as u64) * scene.camera.width as u64 + x as u64;
     let mut rng = Pcg32::for_sample(opts.seed, pixel, sample as u64);
     let [jx, jy] = rng.next_2d();
     let ray = scene.camera.ray(x as f32 + jx, y as f32 + jy);
     let u = rng.next_f32();
-    let wl = match opts.spectral {
+    let wl = match path.method.spectral {
         Spectral::Hwss => SampledWavelengths::sample_hwss(u),
         Spectral::Mono => SampledWavelengths::sample_mono(u),
     };
@@ -271,7 +299,7 @@ fn render_pass_with(
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
     let path = opts.path_options(scene);
-    let stats = match opts.rays {
+    let stats = match opts.method.rays {
         Rays::Single => pass_single(
             scene,
             opts,
@@ -283,7 +311,7 @@ fn render_pass_with(
             on_row,
         ),
         Rays::Packet | Rays::Lockstep => {
-            let grouping = if opts.rays == Rays::Packet {
+            let grouping = if opts.method.rays == Rays::Packet {
                 Grouping::Regroup
             } else {
                 Grouping::Lockstep
@@ -339,8 +367,7 @@ fn pass_single(
     inject_nonfinite_every: Option<u64>,
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
-    let w = opts.width as usize;
-    let pixels = opts.width as u64 * opts.height as u64;
+    let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
     film.sum
         .par_chunks_mut(w)
         .zip(film.sum_sq.par_chunks_mut(w))
@@ -379,8 +406,7 @@ fn pass_packet<const MEDIA: bool>(
     inject_nonfinite_every: Option<u64>,
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
-    let w = opts.width as usize;
-    let pixels = opts.width as u64 * opts.height as u64;
+    let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
     film.sum
         .par_chunks_mut(2 * w)
         .zip(film.sum_sq.par_chunks_mut(2 * w))
@@ -443,22 +469,16 @@ fn pass_packet<const MEDIA: bool>(
         .reduce(PathStats::default, add_stats)
 }
 
-/// Renders `opts.spp` samples per pixel on a pool of `opts.threads` threads. The scene's
-/// camera must have the resolution of `opts` (see [`Scene::set_resolution`]).
+/// Renders `opts.spp` samples per pixel on a pool of `opts.threads` threads, at the
+/// scene camera's resolution.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     on_row: &(dyn Fn() + Sync),
-) -> Result<RenderResult, String> {
-    if (scene.camera.width, scene.camera.height) != (opts.width, opts.height) {
-        return Err(format!(
-            "render options ask for {}x{} but the camera is {}x{}",
-            opts.width, opts.height, scene.camera.width, scene.camera.height
-        ));
-    }
-    let pool = crate::accel::thread_pool(opts.threads)
-        .map_err(|e| format!("cannot start threads: {e}"))?;
-    let mut film = Film::new(opts.width, opts.height);
+) -> Result<RenderResult> {
+    opts.validate()?;
+    let pool = thread_pool(opts.threads)?;
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
     let start = Instant::now();
     let stats = pool.install(|| render_pass(scene, opts, &mut film, 0, opts.spp, on_row));
     Ok(RenderResult {
@@ -502,6 +522,8 @@ pub enum Stopped {
 }
 
 impl Stopped {
+    const ALL: [Stopped; 3] = [Stopped::Complete, Stopped::TimeBudget, Stopped::Interrupted];
+
     /// A short name for headers and statistics.
     pub fn name(self) -> &'static str {
         match self {
@@ -509,6 +531,11 @@ impl Stopped {
             Stopped::TimeBudget => "time budget",
             Stopped::Interrupted => "interrupted",
         }
+    }
+
+    /// The value called `name` ([`Stopped::name`]), if any.
+    pub fn from_name(name: &str) -> Option<Stopped> {
+        Stopped::ALL.into_iter().find(|s| s.name() == name)
     }
 }
 
@@ -536,15 +563,21 @@ pub struct ProgressiveResult {
 /// How many samples per pixel a render starting at sample index `first` may draw:
 /// `max_spp`, or as many as the 32-bit sample index allows; an error if that is none or
 /// `max_spp` overflows the index.
-pub fn sample_count(first: u32, max_spp: Option<u32>) -> Result<u32, String> {
+pub fn sample_count(first: u32, max_spp: Option<u32>) -> Result<u32> {
     let room = u32::MAX - first;
     let n = max_spp.unwrap_or(room);
     if n == 0 || n > room {
-        return Err(format!(
+        return Err(Error::Other(format!(
             "samples [{first}, {first} + {n}) do not fit the 32-bit sample index"
-        ));
+        )));
     }
     Ok(n)
+}
+
+/// A pool of `threads` render threads (0 = one per core).
+fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    crate::accel::thread_pool(threads)
+        .map_err(|e| Error::Other(format!("cannot start threads: {e}")))
 }
 
 /// Renders passes of `prog.batch` samples per pixel (samples `first_sample`, … in order,
@@ -557,26 +590,24 @@ pub fn render_progressive(
     prog: &Progressive,
     on_row: &(dyn Fn() + Sync),
     on_pass: &mut dyn FnMut(PassDone),
-) -> Result<ProgressiveResult, String> {
-    if (scene.camera.width, scene.camera.height) != (opts.width, opts.height) {
-        return Err(format!(
-            "render options ask for {}x{} but the camera is {}x{}",
-            opts.width, opts.height, scene.camera.width, scene.camera.height
-        ));
-    }
+) -> Result<ProgressiveResult> {
+    opts.validate()?;
     if prog.max_spp.is_none() && prog.time_budget.is_none() {
-        return Err("a progressive render needs a sample count or a time budget".into());
+        return Err(Error::Other(
+            "a progressive render needs a sample count or a time budget".into(),
+        ));
     }
     if let Some(t) = prog.time_budget {
         if !(t.is_finite() && t > 0.0) {
-            return Err(format!("expected a positive time budget, found {t}"));
+            return Err(Error::Other(format!(
+                "expected a positive time budget, found {t}"
+            )));
         }
     }
     let max_spp = sample_count(prog.first_sample, prog.max_spp)?;
     let batch = prog.batch.max(1);
-    let pool = crate::accel::thread_pool(opts.threads)
-        .map_err(|e| format!("cannot start threads: {e}"))?;
-    let mut film = Film::try_new(opts.width, opts.height)?;
+    let pool = thread_pool(opts.threads)?;
+    let mut film = Film::try_new(scene.camera.width, scene.camera.height)?;
     let mut stats = PathStats::default();
     let mut passes = 0u32;
     let start = Instant::now();

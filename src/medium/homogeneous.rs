@@ -25,7 +25,7 @@
 //!
 //! σ̂_t(λ) = σ_a(λ) + σ_s(λ) + σ_dye(λ),   σ̂_s(λ) = σ_s(λ) + σ_se(λ).
 //!
-//! (In DESIGN.md §5's notation σ̂_t = σ_a' + σ_s + σ_sa with σ_a' = σ_a + σ_dye − σ_sa the
+//! (In docs/design.md's notation σ̂_t = σ_a' + σ_s + σ_sa with σ_a' = σ_a + σ_dye − σ_sa the
 //! absorption that does not re-emit.) σ̂_s may exceed σ̂_t: in the emission band outside the
 //! absorption band σ̂_t can even be 0 while σ̂_s > 0.
 //!
@@ -35,6 +35,7 @@
 //! is σ_s/s; σ_se, σ_sa and shift values are multiplied back by s, pdfs are unchanged.
 
 use super::phase::HenyeyGreenstein;
+use crate::error::Detail;
 use crate::fluoro::{Reradiation, ShiftSample};
 use crate::spectrum::Spectrum;
 use glam::Vec4;
@@ -112,12 +113,12 @@ impl Homogeneous {
         emission: &Spectrum,
         quantum_yield: f32,
         cell_nm: f32,
-    ) -> Result<Homogeneous, String> {
+    ) -> Result<Homogeneous, Detail> {
         let peak = absorption_coefficient.max_value();
         if !peak.is_finite() {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "dye absorption coefficient must be finite, found a maximum of {peak}"
-            ));
+            )));
         }
         let scale = peak.max(1.0);
         let fraction = absorption_coefficient.clone().scaled(1.0 / scale);
@@ -129,7 +130,9 @@ impl Homogeneous {
             cell_nm,
         )
         .map_err(|e| {
-            format!("fluorescent medium: {e} (absorption coefficient divided by {scale})")
+            Detail::Text(format!(
+                "fluorescent medium: {e} (absorption coefficient divided by {scale})"
+            ))
         })?
         .with_diagonal(self.sigma_s.clone().scaled(1.0 / scale));
         self.dye = Some(Dye {

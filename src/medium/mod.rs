@@ -1,6 +1,6 @@
 //! Participating media: homogeneous media with an optional fluorescent dye, the
 //! Henyey–Greenstein phase function, and the three distance-tracking strategies of
-//! Mojzík, Fichet and Wilkie (EGSR 2018) for camera paths (DESIGN.md §5).
+//! Mojzík, Fichet and Wilkie (EGSR 2018) for camera paths (docs/design.md, "Distance tracking in media").
 //!
 //! - [`phase`]: [`HenyeyGreenstein`] (direction convention: `wo` points back along the
 //!   incoming ray, `wi` is the new direction, cos θ = −`wo`·`wi`, g > 0 forward).
@@ -15,7 +15,7 @@
 //! wavelengths in nm, the dye's F in 1/(scene-unit·nm).
 //!
 //! # Scene syntax
-//! (parsed in `scene`; a shape's `interior` names the medium inside it)
+//! (parsed by [`Homogeneous::from_desc`] in [`desc`]; a shape's `interior` names the medium inside it)
 //! ```toml
 //! [media.fog]             # σ_a and/or σ_s, or albedo together with sigma_t; g defaults to 0
 //! albedo = 0.8
@@ -30,7 +30,7 @@
 //! dye = { absorption = { wavelengths = [400, 440, 480], values = [0, 1, 0] }, concentration = 4.0, emission = { wavelengths = [490, 525, 600], values = [0, 1, 0] }, quantum_yield = 0.95 }
 //! ```
 //! The tracking method is chosen on the command line, `--tracking classic|max|fluo-aware`
-//! ([`Tracking`]; its `Display` prints those names).
+//! ([`Tracking`]; its names and the scene-dependent default are in [`crate::method`]).
 //!
 //! How the integrator uses them on a segment of length d inside a medium, with lane 0 the
 //! hero: `st = sigma_t_hat(λ)`, `ss = sigma_s_hat(λ)`, then [`tracking::sample_distance`];
@@ -39,10 +39,12 @@
 //! supplies σ̂_s) and a phase-function sample; at the surface the same with
 //! `prob_surface(..)` and `transmittance(st, d)`.
 
+pub mod desc;
 pub mod homogeneous;
 pub mod phase;
 pub mod tracking;
 
+pub use desc::{MediumDesc, MediumDyeDesc};
 pub use homogeneous::Homogeneous;
 pub use phase::HenyeyGreenstein;
 pub use tracking::{DistanceSample, Tracking};

@@ -7,7 +7,7 @@
 //! T(t)·σ̂_s / p(t) (the σ̂_s factor enters through the shift sample, whose value over pdf is
 //! σ̂_s) and the surface with T(d) / P(surface), T(t) = e^{−σ̂_t t}.
 //!
-//! `sigma_t` and `sigma_s` are the camera-path coefficients σ̂_t, σ̂_s of DESIGN.md §5, in
+//! `sigma_t` and `sigma_s` are the camera-path coefficients σ̂_t, σ̂_s of docs/design.md §3, in
 //! 1/scene-unit, one per lane; negative or NaN values count as 0. The hero (lane 0) drives
 //! sampling; [`pdf_collision`] and [`prob_surface`] give, per lane k, the density or
 //! probability with which lane k *as hero* would have produced the same event, for the
@@ -48,34 +48,16 @@
 
 use glam::Vec4;
 
-/// A distance-sampling strategy (CLI names `classic`, `max`, `fluo-aware`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
+/// A distance-sampling strategy. Its names (`classic`, `max`, `fluo-aware`) and the
+/// scene-dependent default are in [`crate::method`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Tracking {
     /// Exponential in σ̂_t: biased where σ̂_t = 0 < σ̂_s.
     Classic,
     /// Exponential in max(σ̂_s, σ̂_t): unbiased, weights up to e^{(σ̂_s−σ̂_t)d}.
     Max,
     /// The paper's σ̂_s e^{−σ̂_t t}/N: unbiased, hero weight exactly N.
-    #[default]
-    #[value(name = "fluo-aware")]
     FluoAware,
-}
-
-impl Tracking {
-    /// The CLI name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Tracking::Classic => "classic",
-            Tracking::Max => "max",
-            Tracking::FluoAware => "fluo-aware",
-        }
-    }
-}
-
-impl std::fmt::Display for Tracking {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
 }
 
 /// The outcome of distance sampling on a segment.
@@ -245,20 +227,6 @@ pub fn transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::ValueEnum;
-
-    #[test]
-    fn cli_names() {
-        for (name, m) in [
-            ("classic", Tracking::Classic),
-            ("max", Tracking::Max),
-            ("fluo-aware", Tracking::FluoAware),
-        ] {
-            assert_eq!(Tracking::from_str(name, false), Ok(m));
-            assert_eq!(m.name(), name);
-            assert_eq!(m.to_possible_value().unwrap().get_name(), name);
-        }
-    }
 
     #[test]
     fn norm_limits() {

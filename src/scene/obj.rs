@@ -4,6 +4,8 @@
 //! tobj reports malformed input without line numbers, so a first pass checks the `v` and
 //! `f` lines itself and names the line; tobj then does the real parse.
 
+use crate::error::{Detail, Error};
+use crate::Result;
 use std::path::Path;
 
 /// One object of an OBJ file as triangles.
@@ -18,9 +20,9 @@ pub struct ObjMesh {
 }
 
 /// Loads every object of `path`. Errors name the file, the line and what was expected.
-pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>, String> {
+pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read OBJ file: {e}", path.display()))?;
+        .map_err(|e| Error::file(path, None, format!("cannot read OBJ file: {e}")))?;
     validate(path, &text)?;
     // Positions only: with `single_index: false` tobj keeps the position indices as they
     // are (no re-indexing map, no vertices duplicated where normals or texture
@@ -35,7 +37,7 @@ pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>, String> {
     // Materials are the scene file's business; ignore .mtl references.
     let (models, _) =
         tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
-            .map_err(|e| format!("{}: malformed OBJ file: {e}", path.display()))?;
+            .map_err(|e| Error::file(path, None, format!("malformed OBJ file: {e}")))?;
     drop(reader);
     drop(text); // the models own their data: free the file's text before converting
     let mut out = Vec::with_capacity(models.len());
@@ -61,36 +63,36 @@ pub fn load_obj(path: &Path) -> Result<Vec<ObjMesh>, String> {
         });
     }
     if out.is_empty() {
-        return Err(format!("{}: the OBJ file has no faces", path.display()));
+        return Err(Error::file(path, None, "the OBJ file has no faces"));
     }
     Ok(out)
 }
 
 /// Checks vertex and face lines, naming the first bad one.
-fn validate(path: &Path, text: &str) -> Result<(), String> {
+fn validate(path: &Path, text: &str) -> Result<()> {
     let mut nv: i64 = 0;
     for (i, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
         let lineno = i + 1;
         let mut words = line.split_whitespace();
         let Some(tag) = words.next() else { continue };
-        let err = |what: &str| {
-            format!(
-                "{}:{lineno}: {what}, found {:?}",
-                path.display(),
-                raw.trim()
+        let err = |expected: &str| {
+            Error::file(
+                path,
+                Some(lineno),
+                Detail::expected(expected, format!("{:?}", raw.trim())),
             )
         };
         match tag {
             "v" => {
                 let vals: Vec<&str> = words.collect();
                 if vals.len() < 3 || vals.len() > 7 {
-                    return Err(err("expected a vertex `v x y z`"));
+                    return Err(err("a vertex `v x y z`"));
                 }
                 for v in &vals[..3] {
                     match v.parse::<f32>() {
                         Ok(x) if x.is_finite() => {}
-                        _ => return Err(err("expected three finite numbers after `v`")),
+                        _ => return Err(err("three finite numbers after `v`")),
                     }
                 }
                 nv += 1;
@@ -98,18 +100,21 @@ fn validate(path: &Path, text: &str) -> Result<(), String> {
             "f" => {
                 let refs: Vec<&str> = words.collect();
                 if refs.len() < 3 {
-                    return Err(err("expected a face with at least three vertices"));
+                    return Err(err("a face with at least three vertices"));
                 }
                 for r in refs {
                     let first = r.split('/').next().unwrap_or("");
                     let idx: i64 = first
                         .parse()
-                        .map_err(|_| err("expected vertex indices (integers) in the face"))?;
+                        .map_err(|_| err("vertex indices (integers) in the face"))?;
                     let resolved = if idx < 0 { nv + idx + 1 } else { idx };
                     if idx == 0 || resolved < 1 || resolved > nv {
-                        return Err(format!(
-                            "{}:{lineno}: face index {idx} is out of range (1..={nv} vertices defined so far)",
-                            path.display()
+                        return Err(Error::file(
+                            path,
+                            Some(lineno),
+                            format!(
+                                "face index {idx} is out of range (1..={nv} vertices defined so far)"
+                            ),
                         ));
                     }
                 }
@@ -149,15 +154,17 @@ mod tests {
     #[test]
     fn errors_name_file_and_line() {
         let p = write("bad.obj", "v 0 0 0\nv 1 0 0\nv 1 x 0\nf 1 2 3\n");
-        let e = load_obj(&p).unwrap_err();
+        let e = load_obj(&p).unwrap_err().to_string();
         assert!(e.contains("bad.obj:3"), "{e}");
         let p = write("range.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 4\n");
-        let e = load_obj(&p).unwrap_err();
+        let e = load_obj(&p).unwrap_err().to_string();
         assert!(
             e.contains("range.obj:4") && e.contains("out of range"),
             "{e}"
         );
-        let e = load_obj(Path::new("/nonexistent/x.obj")).unwrap_err();
+        let e = load_obj(Path::new("/nonexistent/x.obj"))
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("/nonexistent/x.obj") && e.contains("cannot read"),
             "{e}"

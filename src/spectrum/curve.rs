@@ -14,6 +14,8 @@
 //! Fields are separated by commas (or, on a line with no comma, by whitespace). Without a
 //! header the value columns are named `"1"`, `"2"`, ….
 
+use crate::error::{Detail, Error};
+use crate::Result;
 use std::path::Path;
 
 /// A piecewise-linear curve over wavelength (nm), zero outside its samples.
@@ -29,27 +31,27 @@ pub struct Tabulated {
 impl Tabulated {
     /// Checks the table: at least one sample, as many values as wavelengths, finite
     /// numbers, strictly increasing wavelengths.
-    pub fn new(wavelengths: Vec<f32>, values: Vec<f32>) -> Result<Tabulated, String> {
+    pub fn new(wavelengths: Vec<f32>, values: Vec<f32>) -> Result<Tabulated, Detail> {
         if wavelengths.len() != values.len() {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "tabulated spectrum has {} wavelengths but {} values",
                 wavelengths.len(),
                 values.len()
-            ));
+            )));
         }
         if wavelengths.is_empty() {
             return Err("tabulated spectrum needs at least one sample, found none".into());
         }
         for (i, (&w, &v)) in wavelengths.iter().zip(&values).enumerate() {
             if !w.is_finite() {
-                return Err(format!(
+                return Err(Detail::Text(format!(
                     "tabulated spectrum: wavelength at index {i} is not finite ({w})"
-                ));
+                )));
             }
             if !v.is_finite() {
-                return Err(format!(
+                return Err(Detail::Text(format!(
                     "tabulated spectrum: value at index {i} ({w} nm) is not finite ({v})"
-                ));
+                )));
             }
         }
         for (i, pair) in wavelengths.windows(2).enumerate() {
@@ -59,13 +61,13 @@ impl Tabulated {
                 } else {
                     "is smaller than"
                 };
-                return Err(format!(
+                return Err(Detail::Text(format!(
                     "tabulated spectrum: wavelengths must be strictly increasing, but index {} \
                      ({} nm) {what} index {i} ({} nm)",
                     i + 1,
                     pair[1],
                     pair[0]
-                ));
+                )));
             }
         }
         let uniform = uniform_grid(&wavelengths);
@@ -157,15 +159,15 @@ fn uniform_grid(w: &[f32]) -> Option<(f32, f32)> {
 /// Reads every value column of a CSV file (see the module docs for the layout).
 ///
 /// Errors name the file and line, e.g. `cbox.csv:17: expected a number in column 3, found 'abc'`.
-pub fn read_csv(path: &Path) -> Result<Vec<(String, Tabulated)>, String> {
+pub fn read_csv(path: &Path) -> Result<Vec<(String, Tabulated)>> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        .map_err(|e| Error::file(path, None, format!("cannot read: {e}")))?;
     parse_csv(&text, &path.display().to_string())
 }
 
 /// One column of a CSV file: the column called `column`, or the only value column when
 /// `column` is `None`.
-pub fn csv_column(path: &Path, column: Option<&str>) -> Result<Tabulated, String> {
+pub fn csv_column(path: &Path, column: Option<&str>) -> Result<Tabulated> {
     let columns = read_csv(path)?;
     pick_column(columns, column, &path.display().to_string())
 }
@@ -174,7 +176,7 @@ fn pick_column(
     columns: Vec<(String, Tabulated)>,
     column: Option<&str>,
     source: &str,
-) -> Result<Tabulated, String> {
+) -> Result<Tabulated> {
     let names = || {
         columns
             .iter()
@@ -184,10 +186,14 @@ fn pick_column(
     };
     match column {
         None if columns.len() == 1 => Ok(columns.into_iter().next().unwrap().1),
-        None => Err(format!(
-            "{source}: has {} value columns ({}); name the one to use",
-            columns.len(),
-            names()
+        None => Err(Error::file(
+            source,
+            None,
+            format!(
+                "has {} value columns ({}); name the one to use",
+                columns.len(),
+                names()
+            ),
         )),
         Some(name) => {
             let available = names();
@@ -196,14 +202,19 @@ fn pick_column(
                 .find(|(n, _)| n == name)
                 .map(|(_, t)| t)
                 .ok_or_else(|| {
-                    format!("{source}: no column named '{name}'; available: {available}")
+                    Error::file(
+                        source,
+                        None,
+                        format!("no column named '{name}'; available: {available}"),
+                    )
                 })
         }
     }
 }
 
-/// Parses CSV text; `source` (usually the file name) prefixes every error message.
-pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>, String> {
+/// Parses CSV text; `source` (usually the file name) is the file every error names.
+pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>> {
+    let at = |line: usize, detail: Detail| Error::file(source, Some(line), detail);
     let mut names: Option<Vec<String>> = None;
     let mut wavelengths: Vec<f32> = Vec::new();
     let mut columns: Vec<Vec<f32>> = Vec::new();
@@ -226,9 +237,12 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>, S
             if fields[0].parse::<f32>().is_err() {
                 // A header row: the first field names the wavelength column.
                 if fields.len() < 2 {
-                    return Err(format!(
-                        "{source}:{line_no}: expected a header with a wavelength column and at \
-                         least one value column, found '{line}'"
+                    return Err(at(
+                        line_no,
+                        Detail::expected(
+                            "a header with a wavelength column and at least one value column",
+                            format!("'{line}'"),
+                        ),
                     ));
                 }
                 names = Some(fields[1..].iter().map(|s| s.to_string()).collect());
@@ -236,43 +250,54 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>, S
                 continue;
             }
             if fields.len() < 2 {
-                return Err(format!(
-                    "{source}:{line_no}: expected a wavelength and at least one value, found \
-                     '{line}'"
+                return Err(at(
+                    line_no,
+                    Detail::expected("a wavelength and at least one value", format!("'{line}'")),
                 ));
             }
             columns = vec![Vec::new(); fields.len() - 1];
         }
         let expected = columns.len() + 1;
         if fields.len() != expected {
-            return Err(format!(
-                "{source}:{line_no}: expected {expected} columns (wavelength + {} values), found {}",
-                expected - 1,
-                fields.len()
+            return Err(at(
+                line_no,
+                Detail::expected(
+                    format!("{expected} columns (wavelength + {} values)", expected - 1),
+                    fields.len(),
+                ),
             ));
         }
         let mut numbers = Vec::with_capacity(expected);
         for (c, field) in fields.iter().enumerate() {
             let v: f32 = field.parse().map_err(|_| {
-                format!(
-                    "{source}:{line_no}: expected a number in column {}, found '{field}'",
-                    c + 1
+                at(
+                    line_no,
+                    Detail::expected(
+                        format!("a number in column {}", c + 1),
+                        format!("'{field}'"),
+                    ),
                 )
             })?;
             if !v.is_finite() {
-                return Err(format!(
-                    "{source}:{line_no}: expected a finite number in column {}, found '{field}'",
-                    c + 1
+                return Err(at(
+                    line_no,
+                    Detail::expected(
+                        format!("a finite number in column {}", c + 1),
+                        format!("'{field}'"),
+                    ),
                 ));
             }
             numbers.push(v);
         }
         if let Some(&prev) = wavelengths.last() {
             if numbers[0] <= prev {
-                return Err(format!(
-                    "{source}:{line_no}: wavelengths must be strictly increasing, but {} nm \
-                     follows {prev} nm on line {last_line}",
-                    numbers[0]
+                return Err(at(
+                    line_no,
+                    Detail::Text(format!(
+                        "wavelengths must be strictly increasing, but {} nm follows {prev} nm \
+                         on line {last_line}",
+                        numbers[0]
+                    )),
                 ));
             }
         }
@@ -284,7 +309,7 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>, S
     }
 
     if wavelengths.is_empty() {
-        return Err(format!("{source}: no data rows"));
+        return Err(Error::file(source, None, "no data rows"));
     }
     let names = names.unwrap_or_else(|| (1..=columns.len()).map(|i| i.to_string()).collect());
     names
@@ -293,7 +318,7 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<(String, Tabulated)>, S
         .map(|(name, values)| {
             Tabulated::new(wavelengths.clone(), values)
                 .map(|t| (name.clone(), t))
-                .map_err(|e| format!("{source}: column '{name}': {e}"))
+                .map_err(|e| Error::file(source, None, format!("column '{name}': {e}")))
         })
         .collect()
 }
@@ -358,20 +383,30 @@ mod tests {
 
     #[test]
     fn rejects_bad_tables() {
-        let e = Tabulated::new(vec![400.0, 500.0, 450.0], vec![0.0; 3]).unwrap_err();
+        let e = Tabulated::new(vec![400.0, 500.0, 450.0], vec![0.0; 3])
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("index 2") && e.contains("450") && e.contains("500"),
             "{e}"
         );
-        let e = Tabulated::new(vec![400.0, 400.0], vec![0.0; 2]).unwrap_err();
+        let e = Tabulated::new(vec![400.0, 400.0], vec![0.0; 2])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("duplicates"), "{e}");
-        let e = Tabulated::new(vec![400.0], vec![0.0; 2]).unwrap_err();
+        let e = Tabulated::new(vec![400.0], vec![0.0; 2])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("1 wavelengths but 2 values"), "{e}");
-        let e = Tabulated::new(vec![], vec![]).unwrap_err();
+        let e = Tabulated::new(vec![], vec![]).unwrap_err().to_string();
         assert!(e.contains("at least one sample"), "{e}");
-        let e = Tabulated::new(vec![400.0, 500.0], vec![0.0, f32::NAN]).unwrap_err();
+        let e = Tabulated::new(vec![400.0, 500.0], vec![0.0, f32::NAN])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("index 1") && e.contains("not finite"), "{e}");
-        let e = Tabulated::new(vec![f32::INFINITY], vec![0.0]).unwrap_err();
+        let e = Tabulated::new(vec![f32::INFINITY], vec![0.0])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("wavelength at index 0"), "{e}");
     }
 
@@ -405,15 +440,23 @@ mod tests {
 
     #[test]
     fn csv_errors_name_file_line_and_column() {
-        let e = parse_csv("nm,a,b\n400,1,2\n410,1,abc\n", "cbox.csv").unwrap_err();
+        let e = parse_csv("nm,a,b\n400,1,2\n410,1,abc\n", "cbox.csv")
+            .unwrap_err()
+            .to_string();
         assert_eq!(e, "cbox.csv:3: expected a number in column 3, found 'abc'");
-        let e = parse_csv("400,1,2\n\n410,1\n", "f.csv").unwrap_err();
+        let e = parse_csv("400,1,2\n\n410,1\n", "f.csv")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("f.csv:3: expected 3 columns"), "{e}");
-        let e = parse_csv("400,1\n# c\n390,1\n", "g.csv").unwrap_err();
+        let e = parse_csv("400,1\n# c\n390,1\n", "g.csv")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("g.csv:3:") && e.contains("line 1"), "{e}");
-        let e = parse_csv("# only a comment\n", "h.csv").unwrap_err();
+        let e = parse_csv("# only a comment\n", "h.csv")
+            .unwrap_err()
+            .to_string();
         assert_eq!(e, "h.csv: no data rows");
-        let e = parse_csv("400,nan\n", "i.csv").unwrap_err();
+        let e = parse_csv("400,nan\n", "i.csv").unwrap_err().to_string();
         assert!(
             e.starts_with("i.csv:1: expected a finite number in column 2"),
             "{e}"
@@ -427,9 +470,11 @@ mod tests {
             pick_column(cols(), Some("b"), "p.csv").unwrap().values(),
             &[2.0]
         );
-        let e = pick_column(cols(), None, "p.csv").unwrap_err();
+        let e = pick_column(cols(), None, "p.csv").unwrap_err().to_string();
         assert!(e.contains("'a', 'b'"), "{e}");
-        let e = pick_column(cols(), Some("c"), "p.csv").unwrap_err();
+        let e = pick_column(cols(), Some("c"), "p.csv")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("no column named 'c'") && e.contains("'a', 'b'"),
             "{e}"

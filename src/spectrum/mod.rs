@@ -23,8 +23,10 @@
 mod blackbody;
 mod cie;
 mod curve;
+pub mod desc;
 mod wavelengths;
 
+use crate::error::Detail;
 use glam::Vec4;
 
 pub use blackbody::{peak_value as blackbody_peak_value, peak_wavelength, planck};
@@ -33,6 +35,7 @@ pub use cie::{
     CIE_Y_INTEGRAL, ILLUMINANT_NAMES,
 };
 pub use curve::{csv_column, parse_csv, read_csv, Tabulated};
+pub use desc::{Range, SpectrumDesc, SpectrumTable};
 pub use wavelengths::SampledWavelengths;
 
 /// Shortest wavelength the renderer samples (nm).
@@ -66,25 +69,44 @@ pub enum Spectrum {
 }
 
 impl Spectrum {
+    /// `f(a, b)` as a spectrum: exact for two constants, otherwise tabulated every
+    /// nanometre over the rendered range (an error if a value is not finite).
+    pub fn combine(
+        a: &Spectrum,
+        b: &Spectrum,
+        f: impl Fn(f32, f32) -> f32,
+    ) -> Result<Spectrum, Detail> {
+        if let (Some(x), Some(y)) = (a.is_constant(), b.is_constant()) {
+            return Ok(Spectrum::Constant(f(x, y)));
+        }
+        let w: Vec<f32> = (0..=LAMBDA_RANGE as u32)
+            .map(|i| LAMBDA_MIN + i as f32)
+            .collect();
+        let v: Vec<f32> = w.iter().map(|&l| f(a.eval(l), b.eval(l))).collect();
+        Ok(Spectrum::Tabulated(Tabulated::new(w, v)?))
+    }
+
     /// A black body, checking that the temperature is positive and finite.
-    pub fn blackbody(kelvin: f32, normalise: bool) -> Result<Spectrum, String> {
+    pub fn blackbody(kelvin: f32, normalise: bool) -> Result<Spectrum, Detail> {
         if !(kelvin.is_finite() && kelvin > 0.0) {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "blackbody temperature must be a positive number of kelvin, found {kelvin}"
-            ));
+            )));
         }
         Ok(Spectrum::Blackbody { kelvin, normalise })
     }
 
     /// A narrow band, checking that the centre is finite and the width positive.
-    pub fn narrow_band(centre: f32, fwhm: f32) -> Result<Spectrum, String> {
+    pub fn narrow_band(centre: f32, fwhm: f32) -> Result<Spectrum, Detail> {
         if !centre.is_finite() {
-            return Err(format!("narrow band centre must be finite, found {centre}"));
+            return Err(Detail::Text(format!(
+                "narrow band centre must be finite, found {centre}"
+            )));
         }
         if !(fwhm.is_finite() && fwhm > 0.0) {
-            return Err(format!(
+            return Err(Detail::Text(format!(
                 "narrow band fwhm must be a positive number of nm, found {fwhm}"
-            ));
+            )));
         }
         Ok(Spectrum::NarrowBand { centre, fwhm })
     }

@@ -7,7 +7,7 @@ pub mod stats;
 
 use std::path::{Path, PathBuf};
 use stokes::integrator::render::{render, Film, RenderOptions};
-use stokes::integrator::Spectral;
+use stokes::method::{Dispersion, Method, Rays, Spectral};
 use stokes::scene::Scene;
 
 /// The repository root.
@@ -33,41 +33,87 @@ pub fn scene_file(name: &str) -> Scene {
     Scene::load(&root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Renders `scene` with `opts` (setting the camera to its resolution) and checks that no
-/// sample came out NaN or infinite.
-pub fn render_opts(scene: &mut Scene, opts: &RenderOptions) -> Film {
-    scene.set_resolution(opts.width, opts.height);
+/// Renders `scene` at `w`×`h` with `opts` and checks that no sample came out NaN or
+/// infinite.
+pub fn render_at(scene: &mut Scene, w: u32, h: u32, opts: &RenderOptions) -> Film {
+    scene.set_resolution(w, h);
     let r = render(scene, opts, &|| {}).unwrap();
     assert_eq!(r.stats.nonfinite, 0, "non-finite samples");
     r.film
 }
 
-/// Renders `scene` at `w`×`h` with independent shifting and the scene's default tracking.
-#[allow(clippy::too_many_arguments)]
-pub fn render_film(
-    scene: &mut Scene,
-    w: u32,
-    h: u32,
-    spp: u32,
-    seed: u64,
-    spectral: Spectral,
-    max_depth: i32,
-    threads: usize,
-) -> Film {
-    let opts = RenderOptions {
-        width: w,
-        height: h,
-        spp,
-        seed,
-        max_depth,
-        spectral,
-        shifting: stokes::integrator::Shifting::Independent,
-        tracking: None,
-        threads,
-        rays: Default::default(),
-        dispersion: Default::default(),
-    };
-    render_opts(scene, &opts)
+/// A test render, built up from the defaults (16 spp, seed 0, unbounded depth, one thread
+/// per core, the default method with the scene's default tracking):
+/// `TestRender::at(16, 16).spp(64).seed(3).spectral(Spectral::Mono).film(&mut scene)`.
+#[derive(Debug, Clone)]
+pub struct TestRender {
+    /// Image size.
+    pub size: (u32, u32),
+    /// Everything else.
+    pub opts: RenderOptions,
+}
+
+impl TestRender {
+    /// A `w`×`h` render with the defaults.
+    pub fn at(w: u32, h: u32) -> TestRender {
+        TestRender {
+            size: (w, h),
+            opts: RenderOptions::default(),
+        }
+    }
+
+    /// Samples per pixel.
+    pub fn spp(mut self, spp: u32) -> Self {
+        self.opts.spp = spp;
+        self
+    }
+
+    /// Seed of the random streams.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.opts.seed = seed;
+        self
+    }
+
+    /// Path depth (−1 unbounded).
+    pub fn max_depth(mut self, max_depth: i32) -> Self {
+        self.opts.max_depth = max_depth;
+        self
+    }
+
+    /// Worker threads (0 = one per core).
+    pub fn threads(mut self, threads: usize) -> Self {
+        self.opts.threads = threads;
+        self
+    }
+
+    /// The whole method.
+    pub fn method(mut self, method: Method) -> Self {
+        self.opts.method = method;
+        self
+    }
+
+    /// Wavelength sampling.
+    pub fn spectral(mut self, spectral: Spectral) -> Self {
+        self.opts.method.spectral = spectral;
+        self
+    }
+
+    /// Ray mode.
+    pub fn rays(mut self, rays: Rays) -> Self {
+        self.opts.method.rays = rays;
+        self
+    }
+
+    /// Dispersive refraction.
+    pub fn dispersion(mut self, dispersion: Dispersion) -> Self {
+        self.opts.method.dispersion = dispersion;
+        self
+    }
+
+    /// Renders `scene` (see [`render_at`]).
+    pub fn film(&self, scene: &mut Scene) -> Film {
+        render_at(scene, self.size.0, self.size.1, &self.opts)
+    }
 }
 
 /// Asserts that every pair of `runs` agrees (Z-test at `z`) on every region.

@@ -343,7 +343,11 @@ impl ImageCheck {
     /// difference images kept beside the test image, and the comparison report.
     pub fn run(&self, test: &Exr, reference: &Exr) -> Result<Report, String> {
         let name = |p: &Path| p.display().to_string();
-        let read = |p: &Path| stokes::output::read_exr(p).map(|(w, h, px, m)| ((w, h), px, m));
+        let read = |p: &Path| {
+            stokes::output::read_exr(p)
+                .map(|(w, h, px, m)| ((w, h), px, m))
+                .map_err(|e| e.to_string())
+        };
         let (size, t, t_meta) = read(&test.image)?;
         let (size_tv, tv, _) = read(&test.variance)?;
         let (size_r, r, r_meta) = read(&reference.image)?;

@@ -489,20 +489,28 @@ fn dye_matrix_matches_the_formula_at_cell_centres() {
 #[test]
 fn dye_rejects_bad_parameters() {
     let (a, e, d) = (dye_absorption(), dye_emission(), dye_diagonal());
-    let err = Reradiation::from_dye(d.clone(), &a, &e, 1.5, 10.0).unwrap_err();
+    let err = Reradiation::from_dye(d.clone(), &a, &e, 1.5, 10.0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("quantum yield"), "{err}");
-    let err = Reradiation::from_dye(d.clone(), &a, &e, 0.5, 0.0).unwrap_err();
+    let err = Reradiation::from_dye(d.clone(), &a, &e, 0.5, 0.0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("cell width"), "{err}");
-    let err =
-        Reradiation::from_dye(d.clone(), &Spectrum::Constant(1.2), &e, 0.5, 10.0).unwrap_err();
+    let err = Reradiation::from_dye(d.clone(), &Spectrum::Constant(1.2), &e, 0.5, 10.0)
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("absorption") && err.contains("365 nm"),
         "{err}"
     );
-    let err =
-        Reradiation::from_dye(d.clone(), &a, &Spectrum::Constant(-1.0), 0.5, 10.0).unwrap_err();
+    let err = Reradiation::from_dye(d.clone(), &a, &Spectrum::Constant(-1.0), 0.5, 10.0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("emission"), "{err}");
-    let err = Reradiation::from_dye(d, &a, &Spectrum::Constant(0.0), 0.5, 10.0).unwrap_err();
+    let err = Reradiation::from_dye(d, &a, &Spectrum::Constant(0.0), 0.5, 10.0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("emission is zero"), "{err}");
 }
 
@@ -605,7 +613,7 @@ fn csv_errors_name_the_file_and_line() {
     ];
     let check = |name: &str, text: &str, line: usize, words: &[&str]| {
         let path = scratch(name, text);
-        let e = Reradiation::from_csv(&path).unwrap_err();
+        let e = Reradiation::from_csv(&path).unwrap_err().to_string();
         let prefix = format!("{}:{line}:", path.display());
         assert!(e.starts_with(&prefix), "expected '{prefix}…', got: {e}");
         for w in words {
@@ -649,13 +657,13 @@ fn csv_errors_name_the_file_and_line() {
     );
     // No data and no file.
     let path = scratch("empty.csv", "# nothing\n");
-    let e = Reradiation::from_csv(&path).unwrap_err();
+    let e = Reradiation::from_csv(&path).unwrap_err().to_string();
     assert!(
         e.starts_with(&format!("{}:", path.display())) && e.contains("no data"),
         "{e}"
     );
     let missing = Path::new("/nonexistent/stokes/matrix.csv");
-    let e = Reradiation::from_csv(missing).unwrap_err();
+    let e = Reradiation::from_csv(missing).unwrap_err().to_string();
     assert!(
         e.starts_with("/nonexistent/stokes/matrix.csv: cannot read"),
         "{e}"

@@ -10,10 +10,11 @@ mod common;
 use common::stats::{chi_square, ChiSquare, Rng};
 use glam::{Vec3, Vec4};
 use stokes::medium::tracking::{
-    self, fluo_aware_norm, pdf_collision, pdf_collision_lane, prob_surface, prob_surface_lane,
+    fluo_aware_norm, pdf_collision, pdf_collision_lane, prob_surface, prob_surface_lane,
     sample_distance, transmittance, DistanceSample, Tracking,
 };
 use stokes::medium::{HenyeyGreenstein, Homogeneous};
+use stokes::method::Axis;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
 
 const ALPHA: f64 = 1e-3;
@@ -355,7 +356,7 @@ fn distance_pdfs_integrate_to_one() {
 
 #[test]
 fn distance_pdfs_match_the_closed_forms() {
-    // Independent f64 transcriptions of DESIGN.md §5 at random t.
+    // Independent f64 transcriptions of the formulas in docs/design.md §3 at random t.
     let mut rng = Rng::new(21, 2);
     for (st, ss, d, label) in CASES {
         let (st64, ss64, d64) = (st as f64, ss as f64, d as f64);
@@ -828,10 +829,4 @@ fn single_scattering_in_a_fluorescent_slab_exposes_classic_bias() {
         z_of[2].abs() < 4.0,
         "fluorescence-aware tracking disagrees:\n{report}"
     );
-}
-
-#[test]
-fn tracking_module_is_reachable_by_path() {
-    // The integrator names these through `medium::tracking`.
-    assert_eq!(tracking::Tracking::default(), Tracking::FluoAware);
 }

@@ -7,8 +7,9 @@ use common::*;
 use glam::Vec3;
 use stokes::bsdf::Material;
 use stokes::color::xyz_to_linear_srgb;
-use stokes::integrator::render::RenderOptions;
-use stokes::integrator::{radiance, PathOptions, PathStats, Shifting, Spectral};
+use stokes::integrator::{radiance, PathOptions, PathStats};
+use stokes::medium::tracking::Tracking;
+use stokes::method::{Method, Shifting, Spectral};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 use stokes::spectrum::{illuminant, Spectrum};
@@ -21,20 +22,16 @@ fn render_with(
     spectral: Spectral,
     shifting: Shifting,
 ) -> stokes::integrator::render::Film {
-    let opts = RenderOptions {
-        width: res,
-        height: res,
-        spp,
-        seed,
-        max_depth: -1,
+    let method = Method {
         spectral,
         shifting,
-        tracking: None,
-        threads: 0,
-        rays: Default::default(),
-        dispersion: Default::default(),
+        ..Method::default()
     };
-    render_opts(scene, &opts)
+    TestRender::at(res, res)
+        .spp(spp)
+        .seed(seed)
+        .method(method)
+        .film(scene)
 }
 
 /// Pixels whose centres fall in the inner `keep` share of an axis-aligned rectangle on
@@ -214,11 +211,12 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
             let rng = Pcg32::for_sample(3, lambda_o as u64, i);
             let shift = LazyStream::new(3, lambda_o as u64, i);
             let opts = PathOptions {
-                spectral: Spectral::Mono,
-                shifting: Shifting::Independent,
-                tracking: stokes::medium::tracking::Tracking::Classic,
+                method: Method {
+                    spectral: Spectral::Mono,
+                    ..Method::default()
+                }
+                .with_tracking(Tracking::Classic),
                 max_depth: -1,
-                dispersion: Default::default(),
             };
             let l = radiance(
                 &scene,

@@ -438,6 +438,24 @@ fn measure(
     (median(rs), median(rp))
 }
 
+/// [`bench_rays`] on a loaded scene: its camera's rays, its lights' points, its bounds.
+pub fn bench_scene(scene: &crate::scene::Scene, opts: &RayBenchOptions) -> RayBenchReport {
+    let cam = &scene.camera;
+    let lights = &scene.lights;
+    let camera_ray = |x: f32, y: f32| cam.ray(x, y);
+    let light_point = |u: [f32; 3]| lights.sample(u).map(|s| s.p).unwrap_or(Vec3::ZERO);
+    let input = RayBenchInput {
+        name: scene.name(),
+        accel: &scene.accel,
+        width: cam.width,
+        height: cam.height,
+        camera_ray: &camera_ray,
+        light_point: &light_point,
+        bounds: scene.bounds,
+    };
+    bench_rays(&input, opts)
+}
+
 /// Runs the benchmark: {camera, random, shadow} × {1 thread, all threads} × {single, packet}.
 ///
 /// # Panics

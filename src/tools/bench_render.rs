@@ -8,7 +8,7 @@
 //! build are not timed.
 
 use crate::integrator::render::{render, RenderOptions};
-use crate::integrator::Rays;
+use crate::method::{Axis, Method, Rays};
 use crate::scene::Scene;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -16,7 +16,8 @@ use std::fmt::Write as _;
 /// What and how long to measure.
 #[derive(Debug, Clone)]
 pub struct RenderBenchOptions {
-    /// The render settings besides rays, depth, threads and spp (resolution, method).
+    /// The render settings besides rays, depth, threads and spp (the method's other axes);
+    /// the resolution is the scene camera's.
     pub base: RenderOptions,
     /// The ray modes to compare.
     pub rays: Vec<Rays>,
@@ -78,7 +79,7 @@ pub fn bench_render(
     scene: &Scene,
     opts: &RenderBenchOptions,
     progress: &mut dyn FnMut(&RenderBenchResult),
-) -> Result<RenderBenchReport, String> {
+) -> crate::Result<RenderBenchReport> {
     let reps = opts.repetitions.max(1);
     let mut results = Vec::new();
     for &threads in &opts.threads {
@@ -87,17 +88,21 @@ pub fn bench_render(
         } else {
             threads
         };
+        let pixels = scene.camera.pixel_count() as f64;
         for &depth in &opts.depths {
-            let run = |rays: Rays, spp: u32| -> Result<(f64, f64, Option<f64>), String> {
+            let run = |rays: Rays, spp: u32| -> crate::Result<(f64, f64, Option<f64>)> {
                 let o = RenderOptions {
                     spp,
                     max_depth: depth,
                     threads,
-                    rays,
+                    method: Method {
+                        rays,
+                        ..opts.base.method
+                    },
                     ..opts.base.clone()
                 };
                 let r = render(scene, &o, &|| {})?;
-                let samples = o.width as f64 * o.height as f64 * spp as f64;
+                let samples = pixels * spp as f64;
                 Ok((
                     samples / r.seconds,
                     r.stats.rays as f64 / samples,
@@ -106,7 +111,6 @@ pub fn bench_render(
             };
             // Size the runs from a 1-spp warm-up of the first mode.
             let (rate, _, _) = run(opts.rays[0], 1)?;
-            let pixels = opts.base.width as f64 * opts.base.height as f64;
             let spp = ((rate * opts.seconds / reps as f64) / pixels)
                 .round()
                 .max(1.0) as u32;
@@ -138,8 +142,8 @@ pub fn bench_render(
     }
     Ok(RenderBenchReport {
         scene: scene.name(),
-        width: opts.base.width,
-        height: opts.base.height,
+        width: scene.camera.width,
+        height: scene.camera.height,
         results,
     })
 }

@@ -3,22 +3,29 @@
 //! from `assets/` (Bitstream Vera licence, `assets/DejaVuSans-LICENSE.txt`). Files are
 //! written atomically ([`crate::output::write_atomically`]).
 
+use crate::error::Error;
 use crate::output::write_atomically;
+use crate::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
 /// The embedded font: DejaVu Sans 2.37, from Debian's `fonts-dejavu-core`.
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 
-/// Registers the embedded font as `sans-serif` (once).
-fn register_font() -> Result<(), String> {
-    static ONCE: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
-    ONCE.get_or_init(|| {
-        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
-            .map_err(|_| "the embedded font (assets/DejaVuSans.ttf) is not a valid font".into())
-    })
-    .clone()
+/// Registers the embedded font as `sans-serif` (once). It fails only if the build
+/// embedded a broken font: an [`Error::Other`], as no input is to blame.
+fn register_font() -> Result<()> {
+    static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let valid = *ONCE.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+    });
+    match valid {
+        true => Ok(()),
+        false => Err(Error::Other(
+            "the embedded font (assets/DejaVuSans.ttf) is not a valid font".into(),
+        )),
+    }
 }
 
 /// One line: a name for the legend and its points.
@@ -105,11 +112,15 @@ fn padded(lo: f64, hi: f64) -> (f64, f64) {
     (lo / pad, hi * pad)
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, c: &LogLogChart) -> Result<(), String>
+/// Draws `c` on `root`. Drawing happens in memory, before the file is named: an error
+/// is an [`Error::Other`].
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, c: &LogLogChart) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("cannot draw the chart: {e}");
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| {
+        Error::Other(format!("cannot draw the chart: {e}"))
+    };
     root.fill(&WHITE).map_err(err)?;
     let (plot, legend) = root.split_horizontally(SIZE.0 - 330);
 
@@ -226,7 +237,7 @@ where
 }
 
 /// Writes the chart as SVG.
-pub fn write_svg(chart: &LogLogChart, path: &Path) -> Result<(), String> {
+pub fn write_svg(chart: &LogLogChart, path: &Path) -> Result<()> {
     register_font()?;
     let mut svg = String::new();
     draw(
@@ -234,12 +245,12 @@ pub fn write_svg(chart: &LogLogChart, path: &Path) -> Result<(), String> {
         chart,
     )?;
     write_atomically(path, |tmp| {
-        std::fs::write(tmp, svg.as_bytes()).map_err(|e| format!("cannot write SVG: {e}"))
+        std::fs::write(tmp, svg.as_bytes()).map_err(|e| format!("cannot write SVG: {e}").into())
     })
 }
 
 /// Writes the chart as an 8-bit RGB PNG.
-pub fn write_png(chart: &LogLogChart, path: &Path) -> Result<(), String> {
+pub fn write_png(chart: &LogLogChart, path: &Path) -> Result<()> {
     register_font()?;
     let (w, h) = SIZE;
     let mut buf = vec![0u8; w as usize * h as usize * 3];
@@ -259,7 +270,8 @@ pub fn write_png(chart: &LogLogChart, path: &Path) -> Result<(), String> {
             .map_err(|e| format!("cannot write PNG: {e}"))?;
         wr.write_image_data(&buf)
             .map_err(|e| format!("cannot write PNG: {e}"))?;
-        wr.finish().map_err(|e| format!("cannot write PNG: {e}"))
+        wr.finish()
+            .map_err(|e| format!("cannot write PNG: {e}").into())
     })
 }
 

@@ -5,9 +5,10 @@
 mod common;
 use common::*;
 use glam::Vec4;
-use stokes::integrator::render::{Film, RenderOptions};
-use stokes::integrator::{radiance, PathOptions, PathStats, Shifting, Spectral};
+use stokes::integrator::render::Film;
+use stokes::integrator::{radiance, PathOptions, PathStats};
 use stokes::medium::Tracking;
+use stokes::method::{Method, Shifting, Spectral};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 
@@ -20,20 +21,37 @@ fn render_with(
     tracking: Tracking,
     max_depth: i32,
 ) -> Film {
-    let opts = RenderOptions {
-        width: res,
-        height: res,
-        spp,
-        seed,
-        max_depth,
+    let method = Method {
         spectral,
-        shifting: Shifting::Independent,
         tracking: Some(tracking),
-        threads: 0,
-        rays: Default::default(),
-        dispersion: Default::default(),
+        ..Method::default()
     };
-    render_opts(scene, &opts)
+    TestRender::at(res, res)
+        .spp(spp)
+        .seed(seed)
+        .max_depth(max_depth)
+        .method(method)
+        .film(scene)
+}
+
+#[test]
+fn the_default_tracking_depends_on_the_scene() {
+    // Classic where no medium fluoresces (unbiased and cheapest there), fluorescence-aware
+    // where one does; a tracking asked for is kept.
+    let plain = scene_from(&room_with_medium("sigma_s = 0.5", None));
+    let dyed = scene_from(&room_with_medium(
+        "sigma_s = 0.1\ndye = { absorption = { narrow_band = 440, fwhm = 40 }, emission = { narrow_band = 520, fwhm = 40 }, quantum_yield = 0.9 }",
+        None,
+    ));
+    let open = Method::default();
+    assert_eq!(open.resolve(&plain).tracking, Tracking::Classic);
+    assert_eq!(open.resolve(&dyed).tracking, Tracking::FluoAware);
+    let max = Method {
+        tracking: Some(Tracking::Max),
+        ..open
+    };
+    assert_eq!(max.resolve(&plain).tracking, Tracking::Max);
+    assert_eq!(max.resolve(&dyed).tracking, Tracking::Max);
 }
 
 /// A box of medium `medium` (TOML body of [media.m]) in a grey room under a quad light.
@@ -243,11 +261,12 @@ fn quadrature(scene: &Scene, lambda_o: f32, d: f64) -> f64 {
 fn estimate(scene: &Scene, lambda_o: f32, tracking: Tracking, n: u64) -> (f64, f64) {
     let ray = scene.camera.ray(4.0, 4.0);
     let opts = PathOptions {
-        spectral: Spectral::Mono,
-        shifting: Shifting::Independent,
-        tracking,
+        method: Method {
+            spectral: Spectral::Mono,
+            ..Method::default()
+        }
+        .with_tracking(tracking),
         max_depth: 2,
-        dispersion: Default::default(),
     };
     let (mut s, mut q) = (0.0f64, 0.0f64);
     let mut stats = PathStats::default();
@@ -412,20 +431,17 @@ fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
     let dyed = "sigma_s = 0.3\ng = 0.2\ndye = { absorption = { wavelengths = [360, 420, 470, 520], values = [0.5, 1, 0.6, 0] }, concentration = 1.5, emission = { wavelengths = [480, 520, 560, 640], values = [0, 1, 0.6, 0] }, quantum_yield = 0.9 }";
     let mut scene = scene_from(&room_with_medium(dyed, None));
     let run = |scene: &mut Scene, spp, seed, spectral, shifting, tracking| {
-        let opts = RenderOptions {
-            width: 24,
-            height: 24,
-            spp,
-            seed,
-            max_depth: -1,
+        let method = Method {
             spectral,
             shifting,
             tracking: Some(tracking),
-            threads: 0,
-            rays: Default::default(),
-            dispersion: Default::default(),
+            ..Method::default()
         };
-        render_opts(scene, &opts)
+        TestRender::at(24, 24)
+            .spp(spp)
+            .seed(seed)
+            .method(method)
+            .film(scene)
     };
     let runs = [
         (

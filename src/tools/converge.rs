@@ -2,21 +2,11 @@
 //! renders of one sample per pixel per pass with the error against a reference recorded
 //! at log-spaced checkpoints, log–log slope fits and the CSV.
 //!
-//! **Method names.** A method is one choice on each of five axes, written as its values
-//! joined by `-` in this order:
-//!
-//! | axis | values |
-//! | --- | --- |
-//! | spectral | `hwss`, `mono` |
-//! | shifting | `independent`, `constant` |
-//! | tracking | `classic`, `max`, `fluo-aware` |
-//! | rays | `single`, `packet` (any value `--rays` takes) |
-//! | dispersion | `drop`, `split` |
-//!
-//! for example `hwss-independent-fluo-aware-packet-drop`. Every value belongs to one axis,
-//! so a name given on the command line may list any of them, in any order, and leave
-//! axes out (`mono-packet`, `hwss-constant-max`): those take the defaults (the method
-//! flags, else `hwss`, `independent`, the scene's default tracking, `single`, `drop`).
+//! **Methods** are [`Resolved`] methods, named as [`crate::method`] names them
+//! (`hwss-independent-fluo-aware-packet-drop`); a name given on the command line may
+//! list the values in any order and leave axes out (`mono-packet`, `hwss-constant-max`):
+//! those take the method flags' values, whose defaults are [`Method::default`]'s with the
+//! scene's default tracking.
 //!
 //! **Errors.** At a checkpoint, with `x` the image and `r` the reference over the pixels
 //! `P` of a region and the three channels: `rmse = √(mean (x − r)²)` and
@@ -25,176 +15,75 @@
 //! **CSV** (`convergence.csv`): one row per checkpoint and region, with the columns
 //! [`CSV_HEADER`]; region `image` is the whole image.
 
+use super::chart::{self, LogLogChart, Series};
+use super::merge::Part;
+use crate::error::Error;
+use crate::header::next_free_sample;
 use crate::integrator::render::{render_pass, Film, RenderOptions};
-use crate::integrator::{Dispersion, Rays, Shifting, Spectral};
 use crate::medium::tracking::Tracking;
+use crate::method::{Dispersion, Method, Rays, Resolved, Shifting, Spectral};
+use crate::output::{check_outputs, read_exr, variance_path, write_atomically};
 use crate::scene::Scene;
+use crate::Result;
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The long help of `stokes converge`: method names, the default list and the outputs.
+pub const HELP: &str = "\
+Methods: a method is one value on each of five axes, joined by `-` in this order:
+  spectral     hwss | mono
+  shifting     independent | constant
+  tracking     classic | max | fluo-aware
+  rays         packet | lockstep | single
+  dispersion   split | drop
+for example hwss-independent-fluo-aware-packet-drop (the name the outputs use). In
+--methods a name may list the values in any order and leave axes out: those take the
+method flags' values (--spectral, --shifting, --tracking, --rays, --dispersion), whose
+defaults are hwss, independent, the scene's default tracking, packet, split. Example:
+  --methods hwss-packet,mono-packet,hwss-constant-max
+
+Without --methods: every combination the scene makes meaningful. Spectral and rays
+(single and packet) always vary; shifting only where something fluoresces, tracking only where there are
+media, dispersion only where a dielectric is dispersive; mono takes one shifting and one
+dispersion value (they act on the secondary wavelengths). A method flag given on the
+command line fixes its axis (--spectral mono: only mono methods).
+
+Each method renders passes of 1 spp on samples after the reference's, until --budget
+seconds of rendering (or --spp). At spp 1, 2, 4, 8, ... and at the final spp it records
+the seconds of rendering so far (error computation not counted) and the error against
+the reference over the image and over each [[region]] of the scene:
+  rmse   = sqrt(mean over pixels and channels of (x - r)^2)
+  relmse = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01)
+
+Outputs in --out DIR:
+  convergence.csv   method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,
+                    region,rmse,relmse (one row per checkpoint and region; region `image`
+                    is the whole image)
+  error-vs-time.svg/.png, error-vs-spp.svg/.png: log-log RMSE over the first region
+                    (else the image), one line per method, a dashed line of slope -1/2
+and on stdout a table: per method, the fitted log-log slope of RMSE against spp (over
+checkpoints with spp >= 4; -0.5 for an unbiased method), the final errors and the
+seconds to reach the worst final relMSE of all methods.";
+
+/// The files `stokes converge` writes into its `--out` directory.
+pub const FILES: [&str; 5] = [
+    "convergence.csv",
+    "error-vs-time.svg",
+    "error-vs-time.png",
+    "error-vs-spp.svg",
+    "error-vs-spp.png",
+];
 
 /// The columns of `convergence.csv`.
 pub const CSV_HEADER: &str =
     "method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,region,rmse,relmse";
 
-/// One rendering method: a value on each axis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Method {
-    /// Wavelength sampling.
-    pub spectral: Spectral,
-    /// Lane shifting at fluorescent vertices.
-    pub shifting: Shifting,
-    /// Distance sampling in media (resolved: never the scene default).
-    pub tracking: Tracking,
-    /// Single rays or packets.
-    pub rays: Rays,
-    /// Dispersive refraction.
-    pub dispersion: Dispersion,
-}
-
-/// The command-line names of an axis' values, each with its [`Value`].
-fn named<T: clap::ValueEnum>(wrap: fn(T) -> Value) -> Vec<(String, Value)> {
-    T::value_variants()
-        .iter()
-        .filter_map(|v| {
-            Some((
-                v.to_possible_value()?.get_name().to_string(),
-                wrap(v.clone()),
-            ))
-        })
-        .collect()
-}
-
-/// A value of one axis.
-enum Value {
-    Spectral(Spectral),
-    Shifting(Shifting),
-    Tracking(Tracking),
-    Rays(Rays),
-    Dispersion(Dispersion),
-}
-
-impl Value {
-    fn axis(&self) -> &'static str {
-        match self {
-            Value::Spectral(_) => "spectral",
-            Value::Shifting(_) => "shifting",
-            Value::Tracking(_) => "tracking",
-            Value::Rays(_) => "rays",
-            Value::Dispersion(_) => "dispersion",
-        }
-    }
-}
-
-/// Every value of every axis, by name, and a description of them for errors.
-fn all_values() -> (Vec<(String, Value)>, String) {
-    let mut all: Vec<(String, Value)> = Vec::new();
-    let mut text: Vec<String> = Vec::new();
-    let mut axis = |name: &str, values: Vec<(String, Value)>| {
-        let names: Vec<&str> = values.iter().map(|(n, _)| n.as_str()).collect();
-        text.push(format!("{name} ({})", names.join(", ")));
-        all.extend(values);
-    };
-    axis("spectral", named(Value::Spectral));
-    axis("shifting", named(Value::Shifting));
-    axis("tracking", named(Value::Tracking));
-    axis("rays", named(Value::Rays));
-    axis("dispersion", named(Value::Dispersion));
-    (all, text.join(", "))
-}
-
-impl Method {
-    /// The canonical name: the five values joined by `-`, axes in the order spectral,
-    /// shifting, tracking, rays, dispersion.
-    pub fn name(&self) -> String {
-        self.parts().join("-")
-    }
-
-    /// The five values, in axis order.
-    pub fn parts(&self) -> [&'static str; 5] {
-        [
-            self.spectral.name(),
-            self.shifting.name(),
-            self.tracking.name(),
-            self.rays.name(),
-            self.dispersion.name(),
-        ]
-    }
-
-    /// Parses a name: values of the axes joined by `-`, in any order, each axis at most
-    /// once; the axes left out take their value from `defaults`.
-    pub fn parse(text: &str, defaults: &Method) -> Result<Method, String> {
-        let text = text.trim();
-        if text.is_empty() {
-            return Err("expected a method name such as hwss-independent-fluo-aware-packet, found an empty one".into());
-        }
-        let (values, described) = all_values();
-        let mut m = *defaults;
-        let mut seen: Vec<&str> = Vec::new();
-        let tokens: Vec<&str> = text.split('-').collect();
-        let mut i = 0;
-        while i < tokens.len() {
-            // Values may hold a dash themselves (`fluo-aware`): take the longest match.
-            let found = values
-                .iter()
-                .filter_map(|(name, v)| {
-                    let k = name.split('-').count();
-                    (i + k <= tokens.len() && tokens[i..i + k].join("-") == *name)
-                        .then_some((k, name, v))
-                })
-                .max_by_key(|(k, _, _)| *k);
-            let Some((k, name, value)) = found else {
-                return Err(format!(
-                    "unknown component `{}` in method `{text}`: expected values of {described}, joined by `-`",
-                    tokens[i]
-                ));
-            };
-            i += k;
-            let axis = value.axis();
-            if seen.contains(&axis) {
-                return Err(format!(
-                    "method `{text}` gives the {axis} axis twice (at `{name}`): name one value per axis"
-                ));
-            }
-            seen.push(axis);
-            match *value {
-                Value::Spectral(v) => m.spectral = v,
-                Value::Shifting(v) => m.shifting = v,
-                Value::Tracking(v) => m.tracking = v,
-                Value::Rays(v) => m.rays = v,
-                Value::Dispersion(v) => m.dispersion = v,
-            }
-        }
-        Ok(m)
-    }
-
-    /// Parses a comma-separated list of names; duplicates are an error.
-    pub fn parse_list(text: &str, defaults: &Method) -> Result<Vec<Method>, String> {
-        let mut out: Vec<(Method, &str)> = Vec::new();
-        for item in text.split(',') {
-            let m = Method::parse(item, defaults)?;
-            if let Some((_, first)) = out.iter().find(|(o, _)| *o == m) {
-                return Err(format!(
-                    "`{}` and `{}` name the same method ({})",
-                    first.trim(),
-                    item.trim(),
-                    m.name()
-                ));
-            }
-            out.push((m, item));
-        }
-        Ok(out.into_iter().map(|(m, _)| m).collect())
-    }
-
-    /// `base` with this method's choices.
-    pub fn options(&self, base: &RenderOptions) -> RenderOptions {
-        RenderOptions {
-            spectral: self.spectral,
-            shifting: self.shifting,
-            tracking: Some(self.tracking),
-            rays: self.rays,
-            dispersion: self.dispersion,
-            ..base.clone()
-        }
+/// `base` rendering `method`.
+pub fn options_for(method: &Resolved, base: &RenderOptions) -> RenderOptions {
+    RenderOptions {
+        method: method.with_tracking(Some(method.tracking)),
+        ..base.clone()
     }
 }
 
@@ -217,7 +106,7 @@ impl MethodSpace {
     /// The axes the scene makes meaningful: spectral sampling and rays always; shifting
     /// where something fluoresces; tracking where there are media; dispersion where a
     /// dielectric is dispersive. Fixed axes hold `defaults`' value.
-    pub fn for_scene(scene: &Scene, defaults: &Method) -> MethodSpace {
+    pub fn for_scene(scene: &Scene, defaults: &Resolved) -> MethodSpace {
         let fluorescent = scene.has_fluorescence() || scene.has_fluorescent_media();
         MethodSpace {
             spectral: vec![Spectral::Hwss, Spectral::Mono],
@@ -240,10 +129,22 @@ impl MethodSpace {
         }
     }
 
+    /// Keeps only `value`'s value on its axis: the axis a method flag fixed.
+    pub fn fix(&mut self, axis: &str, value: &Resolved) {
+        match axis {
+            "spectral" => self.spectral = vec![value.spectral],
+            "shifting" => self.shifting = vec![value.shifting],
+            "tracking" => self.tracking = vec![value.tracking],
+            "rays" => self.rays = vec![value.rays],
+            "dispersion" => self.dispersion = vec![value.dispersion],
+            _ => unreachable!("not an axis: {axis}"),
+        }
+    }
+
     /// Every combination, spectral outermost and rays innermost. Shifting and dispersion
     /// act on the secondary wavelengths, which mono does not have: mono takes only the
     /// first value of each.
-    pub fn methods(&self) -> Vec<Method> {
+    pub fn methods(&self) -> Vec<Resolved> {
         let mut out = Vec::new();
         for &spectral in &self.spectral {
             let mono = spectral == Spectral::Mono;
@@ -279,8 +180,8 @@ impl MethodSpace {
 
 /// Names for a legend: the values of the axes on which `methods` differ (the full name
 /// where they all agree).
-pub fn short_names(methods: &[Method]) -> Vec<String> {
-    let parts: Vec<[&str; 5]> = methods.iter().map(Method::parts).collect();
+pub fn short_names(methods: &[Resolved]) -> Vec<String> {
+    let parts: Vec<[&str; 5]> = methods.iter().map(Resolved::parts).collect();
     let varies: Vec<bool> = (0..5)
         .map(|k| parts.iter().any(|p| p[k] != parts[0][k]))
         .collect();
@@ -382,7 +283,7 @@ pub struct Budget {
 #[derive(Debug, Clone)]
 pub struct Run {
     /// The method.
-    pub method: Method,
+    pub method: Resolved,
     /// Checkpoints in order; the last is the final state.
     pub checkpoints: Vec<Checkpoint>,
     /// Non-finite samples dropped.
@@ -395,36 +296,30 @@ pub struct Run {
 pub fn run_method(
     scene: &Scene,
     base: &RenderOptions,
-    method: &Method,
+    method: &Resolved,
     reference: &[[f32; 3]],
     regions: &[MeasuredRegion],
     budget: &Budget,
     pool: &rayon::ThreadPool,
-) -> Result<Run, String> {
-    let opts = method.options(base);
-    if (scene.camera.width, scene.camera.height) != (opts.width, opts.height) {
-        return Err(format!(
-            "render options ask for {}x{} but the camera is {}x{}",
-            opts.width, opts.height, scene.camera.width, scene.camera.height
-        ));
-    }
-    let pixels = opts.width as usize * opts.height as usize;
-    if reference.len() != pixels {
-        return Err(format!(
-            "the reference has {} pixels but the render {}x{} has {pixels}",
+) -> Result<Run> {
+    let opts = options_for(method, base);
+    opts.validate()?;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    if reference.len() as u64 != scene.camera.pixel_count() {
+        return Err(Error::Other(format!(
+            "the reference has {} pixels but the render {width}x{height} has {}",
             reference.len(),
-            opts.width,
-            opts.height
-        ));
+            scene.camera.pixel_count()
+        )));
     }
     if !(budget.seconds.is_finite() && budget.seconds > 0.0) {
-        return Err(format!(
+        return Err(Error::Other(format!(
             "expected a positive time budget, found {}",
             budget.seconds
-        ));
+        )));
     }
     let max_spp = crate::integrator::render::sample_count(budget.first_sample, budget.max_spp)?;
-    let mut film = Film::try_new(opts.width, opts.height)?;
+    let mut film = Film::try_new(width, height)?;
     let mut seconds = 0.0f64;
     let mut pass = 0u32;
     let mut nonfinite = 0u64;
@@ -462,6 +357,290 @@ pub fn run_method(
     })
 }
 
+/// A comparison: methods against a reference, each within a budget, with the CSV and
+/// charts going into `out_dir`.
+pub struct Job<'a> {
+    /// The scene, at the reference's resolution.
+    pub scene: &'a Scene,
+    /// Seed, depth and threads (the method is each of `methods` in turn).
+    pub base: &'a RenderOptions,
+    /// The methods, in the order of the outputs.
+    pub methods: Vec<Resolved>,
+    /// The reference (checked with [`check_reference`]).
+    pub reference: &'a Part,
+    /// How long each method renders.
+    pub budget: Budget,
+    /// Where [`FILES`] go.
+    pub out_dir: PathBuf,
+}
+
+/// What a comparison found.
+pub struct Report {
+    /// One run per method.
+    pub runs: Vec<Run>,
+    /// The regions measured (`image` first).
+    pub regions: Vec<MeasuredRegion>,
+    /// The index of the region the charts and the summary use.
+    pub region: usize,
+    /// The summary as `stokes converge` prints it: the reference, its own noise, the
+    /// table.
+    pub summary: String,
+}
+
+impl Job<'_> {
+    /// The line announcing the comparison.
+    pub fn describe(&self) -> String {
+        let c = &self.scene.camera;
+        format!(
+            "{}: {}x{}, {} methods, {} s each{}, samples from {} on (after the reference's {} spp)",
+            self.scene.name(),
+            c.width,
+            c.height,
+            self.methods.len(),
+            self.budget.seconds,
+            self.budget
+                .max_spp
+                .map(|n| format!(" (at most {n} spp)"))
+                .unwrap_or_default(),
+            self.budget.first_sample,
+            self.reference.spp()
+        )
+    }
+
+    /// Checks that the outputs can be written and creates `out_dir`, so that nothing is
+    /// rendered for results that could not be kept.
+    pub fn prepare(&self) -> Result<()> {
+        let dir = &self.out_dir;
+        let files: Vec<PathBuf> = FILES.iter().map(|f| dir.join(f)).collect();
+        let outputs: Vec<(&str, &Path)> = files.iter().map(|f| ("--out", f.as_path())).collect();
+        check_outputs(&outputs)?;
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Error::option(
+                &format!("--out {}", dir.display()),
+                format!("cannot create directory: {e}"),
+            )
+        })
+    }
+
+    /// Renders every method ([`compare`]) and writes the CSV and the charts (after
+    /// [`Job::prepare`]).
+    pub fn run(&self, on_run: &mut dyn FnMut(usize, &Run)) -> Result<Report> {
+        self.prepare()?;
+        let dir = &self.out_dir;
+        let (scene, c) = (self.scene, &self.scene.camera);
+        let regions = measured_regions(scene, c.width, c.height);
+        let region = chart_region(&regions);
+        let runs = compare(
+            scene,
+            self.base,
+            &self.methods,
+            &self.reference.pixels,
+            &regions,
+            &self.budget,
+            on_run,
+        )?;
+        let text = csv(&runs, &regions);
+        write_atomically(&dir.join(FILES[0]), |tmp| {
+            std::fs::write(tmp, text.as_bytes()).map_err(|e| format!("cannot write: {e}").into())
+        })?;
+        let title = format!("{} {}x{}", scene.name(), c.width, c.height);
+        write_charts(&runs, &regions, region, &title, dir)?;
+        let summary = self.summary(&runs, &regions, region);
+        Ok(Report {
+            runs,
+            regions,
+            region,
+            summary,
+        })
+    }
+
+    /// [`Report::summary`].
+    fn summary(&self, runs: &[Run], regions: &[MeasuredRegion], region: usize) -> String {
+        let (c, r) = (&self.scene.camera, &self.reference);
+        let mut out = format!(
+            "{} {}x{} against {} ({} spp)\n",
+            self.scene.name(),
+            c.width,
+            c.height,
+            r.path.display(),
+            r.spp()
+        );
+        let name = &regions[region].name;
+        let var_path = variance_path(&r.path);
+        if let Ok((w, h, var, _)) = read_exr(&var_path) {
+            if (w, h) == (c.width, c.height) {
+                let over = if region == 0 {
+                    "the whole image".to_string()
+                } else {
+                    format!("region `{name}`")
+                };
+                let _ = writeln!(
+                    out,
+                    "the reference's own noise over {over}: RMSE ≈ {:.3e} (from {}); errors near it are the reference's",
+                    reference_noise(&var, &regions[region].pixels),
+                    var_path.display()
+                );
+            }
+        }
+        out.push('\n');
+        let (target, worst, rows) = summarize(runs, region);
+        out.push_str(&format_summary(name, target, &worst, &rows));
+        out
+    }
+}
+
+/// Renders every method in turn on a pool of `base.threads` threads (after one untimed
+/// pass of the first, so that it does not pay for cold caches and sleeping threads);
+/// `on_run` hears of each finished run with its index.
+pub fn compare(
+    scene: &Scene,
+    base: &RenderOptions,
+    methods: &[Resolved],
+    reference: &[[f32; 3]],
+    regions: &[MeasuredRegion],
+    budget: &Budget,
+    on_run: &mut dyn FnMut(usize, &Run),
+) -> Result<Vec<Run>> {
+    let pool = crate::accel::thread_pool(base.threads)
+        .map_err(|e| Error::Other(format!("cannot start threads: {e}")))?;
+    if let Some(m) = methods.first() {
+        let warm = Budget {
+            max_spp: Some(1),
+            ..*budget
+        };
+        run_method(scene, base, m, reference, regions, &warm, &pool)?;
+    }
+    let mut runs = Vec::with_capacity(methods.len());
+    for (i, m) in methods.iter().enumerate() {
+        let run = run_method(scene, base, m, reference, regions, budget, &pool)?;
+        on_run(i, &run);
+        runs.push(run);
+    }
+    Ok(runs)
+}
+
+/// The region the charts and the summary use: the scene's first `[[region]]`, else the
+/// whole image.
+pub fn chart_region(regions: &[MeasuredRegion]) -> usize {
+    if regions.len() > 1 {
+        1
+    } else {
+        0
+    }
+}
+
+/// Checks that `reference` (the file `--reference`) is a reference of `scene` at its
+/// resolution and `opts`' depth; returns a warning if its tracking is biased in the scene.
+/// Errors are [`Error::About`] the reference file, after the option `--reference`.
+pub fn check_reference(
+    reference: &Part,
+    scene: &Scene,
+    opts: &RenderOptions,
+) -> Result<Option<String>> {
+    let r = reference.path.display();
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let h = &reference.header;
+    let unlike = |rest: String| Err(Error::about_option("--reference", &reference.path, rest));
+    if (reference.width, reference.height) != (width, height) {
+        return unlike(format!(
+            "is {}x{} but this run renders {width}x{height} (--res or the scene's camera.resolution): give a reference of the same size",
+            reference.width, reference.height
+        ));
+    }
+    if h.scene_hash != scene.hash {
+        return unlike(format!(
+            "is a reference of {}, not of {} ({})",
+            h.scene_label(),
+            scene.path.display(),
+            scene.hash
+        ));
+    }
+    if h.max_depth != opts.max_depth {
+        return unlike(format!(
+            "was rendered with max_depth = {} but this run uses {}: the images converge to different values (give --max-depth {})",
+            h.max_depth, opts.max_depth, h.max_depth
+        ));
+    }
+    Ok((h.method.tracking == Tracking::Classic && scene.has_fluorescent_media()).then(|| {
+        format!("{r} was rendered with classic tracking, which is biased in fluorescent media: errors are measured against a biased reference")
+    }))
+}
+
+/// The first sample index after the reference's samples of `seed`, so that no method
+/// reuses them; an error if too few indices are left.
+pub fn first_sample_after(reference: &Part, seed: u64) -> Result<u32> {
+    let first = next_free_sample(&reference.header.ranges, seed);
+    u32::try_from(first)
+        .ok()
+        .filter(|&s| s < u32::MAX / 2)
+        .ok_or_else(|| {
+            Error::about_option(
+                "--reference",
+                &reference.path,
+                format!("holds samples up to {first} of seed {seed}: too many to draw new ones after them (give another --seed)"),
+            )
+        })
+}
+
+/// The RMSE a reference's own noise accounts for over `pixels`: the square root of the
+/// mean variance of its pixel means (`variance`, its variance image).
+pub fn reference_noise(variance: &[[f32; 3]], pixels: &[usize]) -> f64 {
+    let sum: f64 = pixels
+        .iter()
+        .map(|&i| variance[i].iter().map(|&v| v as f64).sum::<f64>())
+        .sum();
+    (sum / (3 * pixels.len()) as f64).sqrt()
+}
+
+/// Writes `error-vs-time` and `error-vs-spp` (SVG and PNG) into `dir`: the RMSE over
+/// `regions[region]` of every run, against seconds and against spp; `title` starts
+/// each chart's title.
+pub fn write_charts(
+    runs: &[Run],
+    regions: &[MeasuredRegion],
+    region: usize,
+    title: &str,
+    dir: &Path,
+) -> Result<()> {
+    let methods: Vec<Resolved> = runs.iter().map(|r| r.method).collect();
+    let names = short_names(&methods);
+    let over = if region == 0 {
+        "the whole image".to_string()
+    } else {
+        format!("region `{}`", regions[region].name)
+    };
+    type X = fn(&Checkpoint) -> f64;
+    let axes: [(&str, &str, &str, X); 2] = [
+        ("error-vs-time", "time", "seconds of rendering", |c| {
+            c.seconds
+        }),
+        ("error-vs-spp", "spp", "samples per pixel", |c| c.spp as f64),
+    ];
+    for (file, against, x_label, x_of) in axes {
+        let chart = LogLogChart {
+            title: format!("{title}: RMSE over {over} against {against}"),
+            x_label: x_label.into(),
+            y_label: "RMSE (linear sRGB)".into(),
+            series: runs
+                .iter()
+                .zip(&names)
+                .map(|(run, name)| Series {
+                    name: name.clone(),
+                    points: run
+                        .checkpoints
+                        .iter()
+                        .map(|c| (x_of(c), c.errors[region].rmse))
+                        .collect(),
+                })
+                .collect(),
+            reference_slope: true,
+        };
+        chart::write_svg(&chart, &dir.join(format!("{file}.svg")))?;
+        chart::write_png(&chart, &dir.join(format!("{file}.png")))?;
+    }
+    Ok(())
+}
+
 /// The CSV text of some runs (header included): one row per checkpoint and region.
 pub fn csv(runs: &[Run], regions: &[MeasuredRegion]) -> String {
     let mut out = String::new();
@@ -474,8 +653,7 @@ pub fn csv(runs: &[Run], regions: &[MeasuredRegion]) -> String {
             for (r, e) in regions.iter().zip(&c.errors) {
                 let _ = writeln!(
                     out,
-                    "{},{spectral},{shifting},{tracking},{rays},{dispersion},{},{},{:.6},{},{:.6e},{:.6e}",
-                    m.name(),
+                    "{m},{spectral},{shifting},{tracking},{rays},{dispersion},{},{},{:.6},{},{:.6e},{:.6e}",
                     c.pass,
                     c.spp,
                     c.seconds,
@@ -580,7 +758,7 @@ pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) 
     for (run, e) in runs.iter().zip(&finals) {
         if e.relmse.is_finite() && (target.is_nan() || e.relmse > target) {
             target = e.relmse;
-            worst = run.method.name();
+            worst = run.method.to_string();
         }
     }
     let rows = runs
@@ -594,7 +772,7 @@ pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) 
                 .collect();
             let last = run.checkpoints.last();
             SummaryRow {
-                method: run.method.name(),
+                method: run.method.to_string(),
                 spp: last.map_or(0, |c| c.spp),
                 seconds: last.map_or(0.0, |c| c.seconds),
                 slope: rmse_slope(run, region),
@@ -644,43 +822,6 @@ pub fn format_summary(region: &str, target: f64, worst: &str, rows: &[SummaryRow
 mod tests {
     use super::*;
 
-    fn default_method() -> Method {
-        Method {
-            spectral: Spectral::Hwss,
-            shifting: Shifting::Independent,
-            tracking: Tracking::Classic,
-            rays: Rays::Single,
-            dispersion: Dispersion::Drop,
-        }
-    }
-
-    #[test]
-    fn names_round_trip_and_parse_in_any_order() {
-        let d = default_method();
-        let m = Method::parse("hwss-independent-fluo-aware-packet", &d).unwrap();
-        assert_eq!(m.tracking, Tracking::FluoAware);
-        assert_eq!(m.rays, Rays::Packet);
-        assert_eq!(m.name(), "hwss-independent-fluo-aware-packet-drop");
-        assert_eq!(Method::parse(&m.name(), &d).unwrap(), m);
-        let n = Method::parse("packet-fluo-aware-split-mono", &d).unwrap();
-        assert_eq!(n.name(), "mono-independent-fluo-aware-packet-split");
-        assert_eq!(Method::parse("max", &d).unwrap().tracking, Tracking::Max);
-        for bad in [
-            "hwss-fluo",
-            "aware",
-            "hwss-mono",
-            "",
-            "hwss--single",
-            "HWSS",
-        ] {
-            assert!(Method::parse(bad, &d).is_err(), "{bad:?} parsed");
-        }
-        let e = Method::parse("hwss-bogus", &d).unwrap_err();
-        assert!(e.contains("`bogus`"), "{e}");
-        assert!(Method::parse_list("hwss,hwss-single", &d).is_err());
-        assert_eq!(Method::parse_list("hwss, mono", &d).unwrap().len(), 2);
-    }
-
     #[test]
     fn method_space_skips_what_mono_lacks() {
         let space = MethodSpace {
@@ -692,7 +833,7 @@ mod tests {
         };
         let ms = space.methods();
         assert_eq!(ms.len(), (2 + 1) * 3 * 2);
-        let names: std::collections::BTreeSet<String> = ms.iter().map(Method::name).collect();
+        let names: std::collections::BTreeSet<String> = ms.iter().map(|m| m.to_string()).collect();
         assert_eq!(names.len(), ms.len());
         assert!(ms
             .iter()

@@ -1,0 +1,325 @@
+//! The command line's options: clap's derive structs and the parsers of their values.
+//! What the options do is in the library; `main.rs` calls it.
+
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use stokes::error::{Error, Key};
+use stokes::integrator::render::RenderOptions;
+use stokes::medium::tracking::Tracking;
+use stokes::method::{Axis, Dispersion, Method, Rays, Shifting, Spectral};
+use stokes::scene::Scene;
+use stokes::tools::converge;
+
+#[derive(Parser)]
+#[command(
+    name = "stokes",
+    version,
+    about = "A spectral path tracer that renders fluorescence correctly and fast"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a scene to an OpenEXR image (linear sRGB).
+    Render(RenderArgs),
+    /// Print what a scene contains and which methods a render of it will use.
+    Info {
+        /// The scene file (TOML).
+        scene: PathBuf,
+    },
+    /// Merge renders of the same scene with disjoint sample ranges (e.g. the parts of a
+    /// cluster job array): the spp-weighted mean.
+    Merge(MergeArgs),
+    /// Render a high-spp reference and its variance (<out>.variance.exr); --resume adds
+    /// samples to an existing one.
+    Reference(ReferenceArgs),
+    /// Compare methods against a reference: error against time and spp at log-spaced
+    /// checkpoints, as CSV, charts and a summary table.
+    #[command(
+        after_help = "Method names such as hwss-independent-fluo-aware-packet-drop, the default method list, the error measures and the outputs: see --help.",
+        after_long_help = converge::HELP
+    )]
+    Converge(ConvergeArgs),
+    /// Benchmarks.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
+}
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// Embree ray throughput: single rays against 4-wide packets.
+    Rays(BenchRaysArgs),
+    /// Path-tracing throughput: packets of four paths against single rays, by depth and
+    /// thread count, in one run.
+    Render(BenchRenderArgs),
+}
+
+/// A clap parser for the values of a method axis, with their descriptions in `--help`.
+pub fn axis<A: Axis + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = A> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let values = A::VALUES
+        .iter()
+        .map(|v| PossibleValue::new(v.name()).help(v.about()));
+    PossibleValuesParser::new(values)
+        .map(|name| A::from_name(&name).expect("clap passes only the listed names"))
+}
+
+/// The options every rendering command shares: image size, seed, threads and the method.
+#[derive(Args, Clone, Debug)]
+pub struct MethodArgs {
+    /// Resolution WxH (default: the scene's).
+    #[arg(long, value_parser = parse_res)]
+    pub res: Option<(u32, u32)>,
+    /// Seed of the random streams (default: the scene's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (0 = one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Wavelength sampling: four hero-driven wavelengths per path, or one.
+    #[arg(long, value_parser = axis::<Spectral>(), default_value_t = Spectral::default())]
+    pub spectral: Spectral,
+    /// How the four wavelengths move at a fluorescent vertex (HWSS).
+    #[arg(long, value_parser = axis::<Shifting>(), default_value_t = Shifting::default())]
+    pub shifting: Shifting,
+    /// Distance sampling in media (default: classic where no medium fluoresces,
+    /// fluo-aware where one does; `stokes info` says which).
+    #[arg(long, value_parser = axis::<Tracking>())]
+    pub tracking: Option<Tracking>,
+    /// Path segments from the camera: 1 = emitters only, 2 = direct light, −1 = unbounded.
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_depth: Option<i32>,
+    /// Trace four paths per Embree packet, or one path at a time.
+    #[arg(long, value_parser = axis::<Rays>(), default_value_t = Rays::default())]
+    pub rays: Rays,
+    /// At a dispersive refraction: drop the three secondary wavelengths, or split the
+    /// path into four single-wavelength paths.
+    #[arg(long, value_parser = axis::<Dispersion>(), default_value_t = Dispersion::default())]
+    pub dispersion: Dispersion,
+}
+
+impl MethodArgs {
+    pub fn method(&self) -> Method {
+        let (spectral, shifting, tracking) = (self.spectral, self.shifting, self.tracking);
+        let (rays, dispersion) = (self.rays, self.dispersion);
+        Method {
+            spectral,
+            shifting,
+            tracking,
+            rays,
+            dispersion,
+        }
+    }
+
+    /// The render options these flags give for `scene` (loaded from `path`), with `spp`
+    /// samples per pixel; sets the camera's resolution.
+    pub fn options(
+        &self,
+        scene: &mut Scene,
+        path: &Path,
+        spp: u32,
+    ) -> stokes::Result<RenderOptions> {
+        let (w, h) = self
+            .res
+            .unwrap_or((scene.camera.width, scene.camera.height));
+        if self.res.is_none() && (w > MAX_SIDE || h > MAX_SIDE) {
+            return Err(Error::Value {
+                file: path.to_path_buf(),
+                error: Key::root("camera").field("resolution").error(format!(
+                    "expected sizes in 1..={MAX_SIDE}, found [{w}, {h}] (--res overrides it)"
+                )),
+            });
+        }
+        scene.set_resolution(w, h);
+        let opts = RenderOptions {
+            spp,
+            seed: self.seed.unwrap_or(scene.render.seed),
+            max_depth: self.max_depth.unwrap_or(scene.render.max_depth),
+            threads: self.threads,
+            method: self.method(),
+        };
+        opts.validate()?;
+        Ok(opts)
+    }
+}
+
+#[derive(Args, Clone)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output EXR (default: out/<scene name>.exr).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Samples per pixel (default: the scene's; with --time, a maximum).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Render whole 1-spp passes while the next one is expected to end within this many
+    /// seconds (scene loading not counted); --spp, if given, is then a maximum.
+    #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true)]
+    pub time: Option<f64>,
+    /// Draw sample indices [K, K + spp) instead of [0, spp): parts with disjoint ranges
+    /// are independent and can be merged with `stokes merge`.
+    #[arg(long, default_value_t = 0)]
+    pub seed_offset: u32,
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// Also write an sRGB PNG preview beside the EXR.
+    #[arg(long)]
+    pub png: bool,
+    /// Also write the per-pixel variance of the mean as <output>.variance.exr.
+    #[arg(long)]
+    pub variance: bool,
+    /// Write render statistics as JSON to this file.
+    #[arg(long)]
+    pub stats_json: Option<PathBuf>,
+    /// Test hook: make every N-th sample NaN (they must be dropped and counted).
+    #[arg(long, hide = true)]
+    pub inject_nonfinite_every: Option<u64>,
+}
+
+#[derive(Args)]
+pub struct MergeArgs {
+    /// The renders to merge (EXR files written by `stokes render` or `stokes merge`).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// The merged EXR.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also merge the parts' <part>.variance.exr into <output>.variance.exr.
+    #[arg(long)]
+    pub variance: bool,
+}
+
+#[derive(Args, Clone)]
+pub struct ReferenceArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Samples per pixel to render (with --resume: to add to the existing ones).
+    #[arg(long)]
+    pub spp: u32,
+    /// The reference EXR; the variance of each pixel mean goes beside it, to
+    /// <output>.variance.exr.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// If the output exists, add --spp samples to it (the sample indices after the ones
+    /// it holds), once its header shows the same scene file, size and settings; without
+    /// an existing output, start one. Without --resume an existing output is an error.
+    #[arg(long)]
+    pub resume: bool,
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+#[derive(Args, Clone)]
+pub struct ConvergeArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The reference EXR (from `stokes reference`) of the same scene file, at the size of
+    /// this run.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Methods to compare, comma-separated (names below; default: every combination the
+    /// scene makes meaningful).
+    #[arg(long)]
+    pub methods: Option<String>,
+    /// Seconds of rendering per method (error computation not counted).
+    #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true, default_value_t = 10.0)]
+    pub budget: f64,
+    /// At most this many samples per pixel per method.
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Output directory (default: out/converge/<scene name>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+#[derive(Args)]
+pub struct BenchRaysArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Seconds of measurement per figure (split over the repetitions).
+    #[arg(long, default_value_t = 1.0)]
+    pub seconds: f64,
+    /// Threads for the multi-threaded figures (0 = one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Repetitions per figure; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repetitions: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct BenchRenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Ray modes to compare, comma-separated (single, packet, lockstep).
+    #[arg(long, value_parser = axis::<Rays>(), value_delimiter = ',', default_value = "single,packet")]
+    pub rays: Vec<Rays>,
+    /// Path depths, comma-separated; −1 is unbounded (1 = camera rays only).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        default_value = "1,3,-1"
+    )]
+    pub max_depth: Vec<i32>,
+    /// Thread counts, comma-separated (0 = one per core).
+    #[arg(long, value_delimiter = ',', default_value = "1,0")]
+    pub threads: Vec<usize>,
+    /// Resolution WxH (default: the scene's).
+    #[arg(long, value_parser = parse_res)]
+    pub res: Option<(u32, u32)>,
+    /// Wavelength sampling.
+    #[arg(long, value_parser = axis::<Spectral>(), default_value_t = Spectral::default())]
+    pub spectral: Spectral,
+    /// Dispersive refraction: drop or split.
+    #[arg(long, value_parser = axis::<Dispersion>(), default_value_t = Dispersion::default())]
+    pub dispersion: Dispersion,
+    /// Target seconds per figure (split over the repetitions).
+    #[arg(long, default_value_t = 2.0)]
+    pub seconds: f64,
+    /// Runs per figure; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repetitions: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// A number of seconds > 0. Like [`parse_res`], a clap value parser: clap puts the
+/// option and the value before the message (`invalid value '0' for '--time <TIME>': …`),
+/// so the error is only the text.
+pub fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
+        _ => Err(format!(
+            "expected a positive number of seconds, found {s:?}"
+        )),
+    }
+}
+
+/// The largest image side: 32768² pixels still index with 32 bits.
+pub const MAX_SIDE: u32 = 32768;
+
+pub fn parse_res(s: &str) -> Result<(u32, u32), String> {
+    let bad = |what: &str| format!("expected {what} in {s:?}");
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH such as 512x512, found {s:?}"))?;
+    let w: u32 = w.trim().parse().map_err(|_| bad("a width"))?;
+    let h: u32 = h.trim().parse().map_err(|_| bad("a height"))?;
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(format!("expected sizes in 1..={MAX_SIDE}, found {s:?}"));
+    }
+    Ok((w, h))
+}

@@ -1,0 +1,390 @@
+//! The `stokes` command line: parse the options ([`args`]), call the library, print.
+
+mod args;
+mod progress;
+
+use args::*;
+use progress::{install_interrupt_handler, pass_logger, progress_bar, STOP};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use stokes::error::{Detail, Error};
+use stokes::header::{RenderHeader, SampleRange};
+use stokes::integrator::render::{render_progressive, PassDone, Progressive, RenderOptions};
+use stokes::integrator::render::{ProgressiveResult, Stopped};
+use stokes::method::{Method, Resolved};
+use stokes::output::{RenderFiles, RenderStats};
+use stokes::scene::Scene;
+use stokes::tools::{bench_rays, bench_render, converge, merge, reference};
+use stokes::Result;
+
+fn main() -> ExitCode {
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    let ok = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
+    let result = match cli.command {
+        Command::Render(a) => cmd_render(&a),
+        Command::Reference(a) => cmd_reference(&a),
+        Command::Converge(a) => ok(cmd_converge(&a, matches.subcommand_matches("converge"))),
+        Command::Info { scene } => ok(load(&scene).map(|s| print!("{}", s.summary()))),
+        Command::Merge(a) => ok(cmd_merge(&a)),
+        Command::Bench {
+            what: BenchCommand::Rays(a),
+        } => ok(cmd_bench_rays(&a)),
+        Command::Bench {
+            what: BenchCommand::Render(a),
+        } => ok(cmd_bench_render(&a)),
+    };
+    result.unwrap_or_else(|e| {
+        eprintln!("error: {}", stokes::one_line(&e.to_string()));
+        ExitCode::FAILURE
+    })
+}
+
+/// Loads a scene and prints its warnings.
+fn load(path: &Path) -> Result<Scene> {
+    let scene = Scene::load(path)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(scene)
+}
+
+/// `--{option}: expected at least 1`.
+fn at_least_one(option: &str) -> Error {
+    Error::option(option, "expected at least 1")
+}
+
+fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
+    let mut scene = load(&a.scene)?;
+    // With a time budget, --spp is a maximum and the scene's spp does not apply.
+    let max_spp = if a.time.is_some() {
+        a.spp
+    } else {
+        Some(a.spp.unwrap_or(scene.render.spp))
+    };
+    let opts = a
+        .method
+        .options(&mut scene, &a.scene, max_spp.unwrap_or(0))?;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    match max_spp {
+        Some(0) => return Err(at_least_one("--spp")),
+        Some(n) if a.seed_offset.checked_add(n).is_none() => {
+            return Err(Error::option(
+                "--seed-offset",
+                format!(
+                    "{} + {n} samples exceed the 32-bit sample index",
+                    a.seed_offset
+                ),
+            ))
+        }
+        _ => {}
+    }
+    if a.inject_nonfinite_every == Some(0) {
+        return Err(at_least_one("--inject-nonfinite-every"));
+    }
+    let files = RenderFiles {
+        exr: a
+            .output
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out").join(format!("{}.exr", scene.name()))),
+        variance: a.variance,
+        png: a.png,
+        stats_json: a.stats_json.clone(),
+    };
+    files.check()?;
+
+    let bar = progress_bar(max_spp.filter(|_| a.time.is_none()), height);
+    install_interrupt_handler(bar.clone());
+    let on_row = || bar.iter().for_each(|b| b.inc(1));
+    let mut log = pass_logger(|p| match (max_spp, a.time) {
+        (Some(n), None) => {
+            let to_go = p.seconds / p.spp as f64 * (n - p.spp) as f64;
+            format!("{} of {n} spp, about {to_go:.0} s to go", p.spp)
+        }
+        (_, Some(t)) => format!("{} spp (time budget {t} s)", p.spp),
+        _ => format!("{} spp", p.spp),
+    });
+    let mut on_pass = |p: PassDone| match &bar {
+        Some(b) => b.set_message(format!("{} spp", p.spp)),
+        None => log(p),
+    };
+    let prog = Progressive {
+        first_sample: a.seed_offset,
+        max_spp,
+        time_budget: a.time,
+        batch: 1,
+        stop: Some(&STOP),
+        inject_nonfinite_every: a.inject_nonfinite_every,
+    };
+    let done = render_progressive(&scene, &opts, &prog, &on_row, &mut on_pass)?;
+    bar.iter().for_each(|b| b.finish_and_clear());
+
+    let film = &done.render.film;
+    let range = SampleRange {
+        seed: opts.seed,
+        start: a.seed_offset as u64,
+        end: a.seed_offset as u64 + film.spp as u64,
+    };
+    let mut header = RenderHeader::for_render(
+        &scene,
+        &opts,
+        vec![range],
+        done.render.seconds,
+        done.stopped,
+    );
+    header.time_budget = a.time;
+    header.nonfinite_samples = done.render.stats.nonfinite;
+    files.write_images(film, &header)?;
+    warn_nonfinite(done.render.stats.nonfinite, "");
+    let stats = RenderStats::new(&done, &header);
+    if let Some(p) = &a.stats_json {
+        stats.write(p)?;
+    }
+    let why = match done.stopped {
+        Stopped::Complete => String::new(),
+        Stopped::TimeBudget => format!(" (time budget {} s)", a.time.unwrap_or(0.0)),
+        Stopped::Interrupted => " (interrupted)".to_string(),
+    };
+    eprintln!(
+        "{}: {width}x{height} {} spp{why} in {:.2} s — {:.2} M samples/s, {:.2} M rays/s → {}",
+        scene.name(),
+        film.spp,
+        done.render.seconds,
+        stats.samples_per_second / 1e6,
+        stats.rays_per_second / 1e6,
+        files.exr.display()
+    );
+    Ok(interrupted(&done, || {
+        format!(
+            "{} holds the {} spp rendered so far (samples {}..{}; continue with --seed-offset {})",
+            files.exr.display(),
+            film.spp,
+            range.start,
+            range.end,
+            range.end
+        )
+    }))
+}
+
+fn warn_nonfinite(count: u64, what: &str) {
+    if count > 0 {
+        eprintln!("warning: {what}{count} samples were NaN or infinite and were dropped");
+    }
+}
+
+/// Exit status 130 with `what_now` after an interrupt, else success.
+fn interrupted(done: &ProgressiveResult, what_now: impl Fn() -> String) -> ExitCode {
+    if done.stopped != Stopped::Interrupted {
+        return ExitCode::SUCCESS;
+    }
+    eprintln!(
+        "error: interrupted after {} passes: {}",
+        done.passes,
+        what_now()
+    );
+    ExitCode::from(130)
+}
+
+fn cmd_merge(a: &MergeArgs) -> Result<()> {
+    let report = merge::merge(&a.inputs, &a.output, a.variance)?;
+    eprintln!("{}", merge::describe(&report, a.inputs.len(), &a.output));
+    Ok(())
+}
+
+fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode> {
+    let mut scene = load(&a.scene)?;
+    if a.spp == 0 {
+        return Err(at_least_one("--spp"));
+    }
+    let opts = a.method.options(&mut scene, &a.scene, a.spp)?;
+    install_interrupt_handler(None);
+    let mut on_pass = pass_logger(|p| {
+        let to_go = p.seconds / p.spp as f64 * (a.spp - p.spp) as f64;
+        format!("{} of {} spp, about {to_go:.0} s to go", p.spp, a.spp)
+    });
+    let job = reference::Job {
+        scene: &scene,
+        opts: &opts,
+        spp: a.spp,
+        out: &a.output,
+        resume: a.resume,
+        stop: Some(&STOP),
+    };
+    let r = reference::render(&job, &mut on_pass)?;
+    warn_nonfinite(r.nonfinite, "");
+    let (total, out) = (r.header.spp(), a.output.display());
+    eprintln!(
+        "{}: reference {}x{}, {total} spp (samples {}): added {} spp in {:.2} s → {out}, {}",
+        scene.name(),
+        scene.camera.width,
+        scene.camera.height,
+        stokes::header::format_ranges(&r.header.ranges),
+        r.added,
+        r.seconds,
+        r.variance.display()
+    );
+    if r.stopped == Stopped::Interrupted {
+        let missing = a.spp - r.added;
+        eprintln!("error: interrupted after {} passes: {out} holds {total} spp; add the {missing} missing with --resume --spp {missing}", r.passes);
+        return Ok(ExitCode::from(130));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<()> {
+    let mut scene = load(&a.scene)?;
+    if a.spp == Some(0) {
+        return Err(at_least_one("--spp"));
+    }
+    let base = a.method.options(&mut scene, &a.scene, 1)?;
+    let r = a.reference.display();
+    if !a.reference.exists() {
+        return Err(Error::option(
+            &format!("--reference {r}"),
+            format!(
+                "no such file (make one with `stokes reference {} --spp N -o {r}`)",
+                a.scene.display()
+            ),
+        ));
+    }
+    let reference = merge::Part::read(&a.reference)?;
+    if let Some(w) = converge::check_reference(&reference, &scene, &base)? {
+        eprintln!("warning: {w}");
+    }
+    let defaults: Resolved = base.method.resolve(&scene);
+    let methods = match &a.methods {
+        Some(list) => {
+            Method::parse_list(list, &defaults).map_err(|e| Error::option("--methods", e))?
+        }
+        None => {
+            // Every combination the scene makes meaningful, but for the axes fixed by a flag.
+            let mut space = converge::MethodSpace::for_scene(&scene, &defaults);
+            for axis in ["spectral", "shifting", "tracking", "rays", "dispersion"] {
+                let given = matches.and_then(|m| m.value_source(axis));
+                if given == Some(clap::parser::ValueSource::CommandLine) {
+                    space.fix(axis, &defaults);
+                }
+            }
+            space.methods()
+        }
+    };
+    let job = converge::Job {
+        scene: &scene,
+        base: &base,
+        budget: converge::Budget {
+            seconds: a.budget,
+            max_spp: a.spp,
+            first_sample: converge::first_sample_after(&reference, base.seed)?,
+        },
+        methods,
+        reference: &reference,
+        out_dir: a
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out/converge").join(scene.name())),
+    };
+    job.prepare()?;
+    eprintln!("{}", job.describe());
+    let regions = converge::measured_regions(&scene, scene.camera.width, scene.camera.height);
+    let region = converge::chart_region(&regions);
+    let count = job.methods.len();
+    let report = job.run(&mut |i, run| {
+        if let Some(last) = run.checkpoints.last() {
+            let rmse = last.errors[region].rmse;
+            let (spp, secs, over) = (last.spp, last.seconds, &regions[region].name);
+            eprintln!(
+                "[{}/{count}] {}: {spp} spp in {secs:.2} s, RMSE {rmse:.4e} over {over}",
+                i + 1,
+                run.method
+            );
+        }
+        warn_nonfinite(run.nonfinite, &format!("{}: ", run.method));
+    })?;
+    print!("{}", report.summary);
+    let d = job.out_dir.display();
+    eprintln!("→ {d}/convergence.csv, {d}/error-vs-time.svg/.png, {d}/error-vs-spp.svg/.png");
+    Ok(())
+}
+
+fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
+    let expected = |option: &str, expected: &str, found: String| {
+        Err(Error::option(
+            option,
+            Detail::Expected {
+                expected: expected.into(),
+                found,
+            },
+        ))
+    };
+    if let Some(&d) = a.max_depth.iter().find(|&&d| d == 0 || d < -1) {
+        return expected("--max-depth", "−1 or depths ≥ 1", d.to_string());
+    }
+    if a.rays.is_empty() || a.max_depth.is_empty() || a.threads.is_empty() {
+        // Three options at once: no one of them to name.
+        return Err(Error::Other(
+            "--rays, --max-depth and --threads each need at least one value".into(),
+        ));
+    }
+    if !(a.seconds.is_finite() && a.seconds > 0.0) {
+        return expected("--seconds", "a positive number", a.seconds.to_string());
+    }
+    let mut scene = load(&a.scene)?;
+    let (width, height) = a.res.unwrap_or((scene.camera.width, scene.camera.height));
+    scene.set_resolution(width, height);
+    let method = Method {
+        spectral: a.spectral,
+        dispersion: a.dispersion,
+        ..Method::default()
+    };
+    let opts = bench_render::RenderBenchOptions {
+        base: RenderOptions {
+            spp: 1,
+            seed: scene.render.seed,
+            method,
+            ..RenderOptions::default()
+        },
+        rays: a.rays.clone(),
+        depths: a.max_depth.clone(),
+        threads: a.threads.clone(),
+        seconds: a.seconds,
+        repetitions: a.repetitions,
+    };
+    let report = bench_render::bench_render(&scene, &opts, &mut |r| {
+        if !a.json {
+            let rate = r.samples_per_second / 1e6;
+            eprintln!(
+                "  {} threads, depth {}, {}: {rate:.3} M samples/s",
+                r.threads, r.max_depth, r.rays
+            );
+        }
+    })?;
+    match a.json {
+        true => println!("{}", json(&report)?),
+        false => print!("{}", bench_render::format_table(&report)),
+    }
+    Ok(())
+}
+
+fn cmd_bench_rays(a: &BenchRaysArgs) -> Result<()> {
+    let scene = load(&a.scene)?;
+    let opts = bench_rays::RayBenchOptions {
+        seconds: a.seconds,
+        threads: a.threads,
+        repetitions: a.repetitions.max(1),
+    };
+    let report = bench_rays::bench_scene(&scene, &opts);
+    match a.json {
+        true => println!("{}", json(&report)?),
+        false => print!("{}", bench_rays::format_table(&report)),
+    }
+    Ok(())
+}
+
+/// A benchmark report as one line of JSON (plain numbers and names: serialising does not
+/// fail, and would have no input to blame).
+fn json(report: &impl serde::Serialize) -> Result<String> {
+    serde_json::to_string(report).map_err(|e| Error::Other(e.to_string()))
+}

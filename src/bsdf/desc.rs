@@ -1,0 +1,243 @@
+//! Materials as a scene file writes them (`[materials.NAME]`), and their parser. The
+//! syntax of every kind is in the [module documentation](super).
+
+use super::{Ior, Material};
+use crate::error::{Key, KeyError};
+use crate::fluoro::{self, Reradiation};
+use crate::scene::context::reject_keys;
+use crate::scene::Context;
+use crate::spectrum::{Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
+use serde::de::{self, Deserializer, MapAccess, Visitor};
+use serde::Deserialize;
+use std::fmt;
+use std::sync::Arc;
+
+/// A material; `type` selects the model.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialDesc {
+    /// `diffuse`, `mirror`, `dielectric` or `fluorescent_diffuse`.
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// `diffuse` (required), `mirror` (default 1), `fluorescent_diffuse` (the diagonal):
+    /// spectral reflectance in [0, 1].
+    pub reflectance: Option<SpectrumDesc>,
+    /// `dielectric`: interior index of refraction.
+    pub ior: Option<IorDesc>,
+    /// `dielectric`: exterior index (default 1).
+    pub ext_ior: Option<f32>,
+    /// `fluorescent_diffuse`: a parametric dye.
+    pub dye: Option<DyeDesc>,
+    /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid).
+    pub matrix: Option<String>,
+}
+
+/// A fluorescent dye on a surface:
+/// `dye = { absorption = SPECTRUM, emission = SPECTRUM, quantum_yield = 0.9 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DyeDesc {
+    /// Fraction of the light absorbed by the dye, in [0, 1].
+    pub absorption: SpectrumDesc,
+    /// Shape of the emission spectrum (normalised by the renderer).
+    pub emission: SpectrumDesc,
+    /// Fraction of the absorbed light re-emitted, in [0, 1].
+    pub quantum_yield: f32,
+    /// Width of the re-radiation grid's cells in nm (default 2).
+    pub cell_nm: Option<f32>,
+}
+
+/// An index of refraction: `1.5`, `{ cauchy = [A, B] }` (n = A + B/λ², λ in nm) or
+/// `{ sellmeier = { b = [B1, B2, B3], c = [C1, C2, C3] } }` (n² = 1 + Σ Bᵢλ²/(λ² − Cᵢ),
+/// λ in µm, Cᵢ in µm²).
+#[derive(Debug, Clone)]
+pub enum IorDesc {
+    /// A constant index.
+    Constant(f64),
+    /// A table with `cauchy` or `sellmeier`.
+    Table(IorTable),
+}
+
+/// The table form of an index of refraction.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IorTable {
+    /// `[A, B]` with B in nm².
+    pub cauchy: Option<[f32; 2]>,
+    /// Sellmeier coefficients.
+    pub sellmeier: Option<SellmeierDesc>,
+}
+
+/// Sellmeier coefficients (three terms).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SellmeierDesc {
+    /// B₁, B₂, B₃.
+    pub b: [f32; 3],
+    /// C₁, C₂, C₃ in µm².
+    pub c: [f32; 3],
+}
+
+impl<'de> Deserialize<'de> for IorDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = IorDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an index of refraction: a number, { cauchy = [A, B] } or { sellmeier = { b = [..], c = [..] } }")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Self::Value, E> {
+                Ok(IorDesc::Constant(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Self::Value, E> {
+                Ok(IorDesc::Constant(v as f64))
+            }
+            fn visit_map<M: MapAccess<'de>>(self, m: M) -> Result<Self::Value, M::Error> {
+                IorTable::deserialize(de::value::MapAccessDeserializer::new(m)).map(IorDesc::Table)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl Ior {
+    /// The index `d` at `key`, which must be ≥ 1 over the rendered range.
+    pub fn from_desc(d: &IorDesc, key: &Key) -> Result<Ior, KeyError> {
+        let ior = match d {
+            IorDesc::Constant(n) => Ior::Constant(*n as f32),
+            IorDesc::Table(t) => match (&t.cauchy, &t.sellmeier) {
+                (Some([a, b]), None) => Ior::Cauchy { a: *a, b: *b },
+                (None, Some(s)) => Ior::Sellmeier { b: s.b, c: s.c },
+                _ => {
+                    return Err(key.error(
+                        "expected exactly one of `cauchy = [A, B]` or `sellmeier = { b = [..], c = [..] }`",
+                    ))
+                }
+            },
+        };
+        for l in [LAMBDA_MIN, 550.0, LAMBDA_MAX] {
+            let n = ior.eval(l);
+            if !(n.is_finite() && n >= 1.0) {
+                return Err(key.expected("an index ≥ 1 over 360–830 nm", format!("{n} at {l} nm")));
+            }
+        }
+        Ok(ior)
+    }
+}
+
+impl Material {
+    /// The material `m`, `[materials.NAME]` at `key`; warnings (clamped matrix entries,
+    /// energy gain) go to `ctx`.
+    pub fn from_desc(m: &MaterialDesc, key: &Key, ctx: &mut Context) -> Result<Material, KeyError> {
+        let kind = m.kind.as_str();
+        let reject = |keys: &[(&str, bool)]| reject_keys(key, kind, "material", keys);
+        let reflectance = |ctx: &Context, r: &SpectrumDesc| {
+            Spectrum::from_desc(r, &key.field("reflectance"), ctx, Some(Range::Unit))
+        };
+        if kind != "fluorescent_diffuse" {
+            reject(&[("dye", m.dye.is_some()), ("matrix", m.matrix.is_some())])?;
+        }
+        let ior_keys = [("ior", m.ior.is_some()), ("ext_ior", m.ext_ior.is_some())];
+        match kind {
+            "diffuse" => {
+                reject(&ior_keys)?;
+                let r = m
+                    .reflectance
+                    .as_ref()
+                    .ok_or_else(|| key.error("missing key `reflectance` for a diffuse material"))?;
+                Ok(Material::Diffuse {
+                    reflectance: reflectance(ctx, r)?,
+                })
+            }
+            "mirror" => {
+                reject(&ior_keys)?;
+                let reflectance = match &m.reflectance {
+                    Some(r) => reflectance(ctx, r)?,
+                    None => Spectrum::Constant(1.0),
+                };
+                Ok(Material::Mirror { reflectance })
+            }
+            "dielectric" => {
+                reject(&[("reflectance", m.reflectance.is_some())])?;
+                let ior = m
+                    .ior
+                    .as_ref()
+                    .ok_or_else(|| key.error("missing key `ior` for a dielectric material"))?;
+                let ior = Ior::from_desc(ior, &key.field("ior"))?;
+                let ext_ior = m.ext_ior.unwrap_or(1.0);
+                if !(ext_ior.is_finite() && ext_ior >= 1.0) {
+                    return Err(key.field("ext_ior").expected("a number ≥ 1", ext_ior));
+                }
+                Ok(Material::Dielectric { ior, ext_ior })
+            }
+            "fluorescent_diffuse" => {
+                reject(&ior_keys)?;
+                let diagonal = m
+                    .reflectance
+                    .as_ref()
+                    .map(|r| reflectance(ctx, r))
+                    .transpose()?;
+                let rr = reradiation(m, key, diagonal, ctx)?;
+                for (l, total) in rr.energy_gain_rows() {
+                    ctx.warn(
+                        key,
+                        format!("re-radiation at {l} nm totals {total:.3} > 1 (the surface creates energy there)"),
+                    );
+                }
+                Ok(Material::FluorescentDiffuse {
+                    reradiation: Arc::new(rr),
+                })
+            }
+            other => Err(key.field("type").expected(
+                "one of \"diffuse\", \"mirror\", \"dielectric\", \"fluorescent_diffuse\"",
+                format!("{other:?}"),
+            )),
+        }
+    }
+}
+
+/// A fluorescent_diffuse material's re-radiation: a parametric dye over the reflectance
+/// `diagonal`, or a measured matrix (whose diagonal `reflectance` replaces, if given).
+fn reradiation(
+    m: &MaterialDesc,
+    key: &Key,
+    diagonal: Option<Spectrum>,
+    ctx: &mut Context,
+) -> Result<Reradiation, KeyError> {
+    match (&m.dye, &m.matrix) {
+        (Some(d), None) => {
+            let diagonal = diagonal.ok_or_else(|| {
+                key.error("missing key `reflectance` (the surface's ordinary reflectance) next to `dye`")
+            })?;
+            let dye = key.field("dye");
+            let a = Spectrum::from_desc(&d.absorption, &dye.field("absorption"), ctx, Some(Range::Unit))?;
+            let e = Spectrum::from_desc(&d.emission, &dye.field("emission"), ctx, Some(Range::NonNegative))?;
+            let cell = fluoro::dye_cell_width(&dye, d.quantum_yield, d.cell_nm)?;
+            Reradiation::from_dye(diagonal, &a, &e, d.quantum_yield, cell).map_err(|e| dye.error(e))
+        }
+        (None, Some(file)) => {
+            let path = ctx.resolve(file);
+            let matrix = key.field("matrix");
+            let (rr, report) = Reradiation::from_csv(&path).map_err(|e| matrix.error(e))?;
+            let clamped = report.clamped_negative + report.clamped_anti_stokes;
+            if clamped > 0 {
+                ctx.warn(
+                    &matrix,
+                    format!(
+                        "{}: set {} negative and {} anti-Stokes (emission ≤ excitation) entries to zero",
+                        path.display(),
+                        report.clamped_negative,
+                        report.clamped_anti_stokes
+                    ),
+                );
+            }
+            Ok(match diagonal {
+                Some(d) => rr.with_diagonal(d),
+                None => rr,
+            })
+        }
+        _ => Err(key.error(
+            "expected exactly one of `dye = { ... }` or `matrix = \"file.csv\"` for a fluorescent_diffuse material",
+        )),
+    }
+}

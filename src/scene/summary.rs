@@ -1,0 +1,99 @@
+//! `stokes info`: what a scene holds and which methods a render of it will use.
+
+use super::Scene;
+use crate::method::{default_tracking, Axis};
+use std::fmt::Write as _;
+
+impl Scene {
+    /// A report of the scene: camera and render defaults, meshes, lights, materials, and
+    /// what the spectral, fluorescence, media and region settings will do.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let mut line = |text: String| {
+            s.push_str(&text);
+            s.push('\n');
+        };
+        line(format!("scene       {}", self.path.display()));
+        line(format!(
+            "camera      {}x{}, render defaults: {} spp, max depth {}, seed {}",
+            self.camera.width,
+            self.camera.height,
+            self.render.spp,
+            self.render.max_depth,
+            self.render.seed
+        ));
+        line(format!(
+            "geometry    {} meshes, {} triangles",
+            self.geometries.len(),
+            self.triangle_count()
+        ));
+        for g in &self.geometries {
+            let m = g
+                .material
+                .map(|m| self.material_names[m as usize].as_str())
+                .unwrap_or("(none)");
+            line(format!(
+                "  {:<40} {:>8} triangles  material {m}",
+                g.name, g.triangles
+            ));
+        }
+        line(format!(
+            "lights      {} emitters, {} emissive triangles",
+            self.lights.emitters.len(),
+            self.lights.triangles.len()
+        ));
+        line(format!("materials   {}", self.material_names.join(", ")));
+        line(format!(
+            "spectral    hwss (4 wavelengths per path){}",
+            if self.has_dispersion() {
+                "; a dispersive dielectric splits the 4 wavelengths: --dispersion drop keeps the hero only, --dispersion split continues all four as single-wavelength paths"
+            } else {
+                ""
+            }
+        ));
+        line(self.fluorescence_line());
+        line(self.media_line());
+        if self.regions.is_empty() {
+            line("regions     none (stokes converge measures the whole image)".into());
+        }
+        for r in &self.regions {
+            line(format!(
+                "region      {}: pixels [{}, {}) x [{}, {}) of {}x{} (stokes converge reports it)",
+                r.name, r.min[0], r.max[0], r.min[1], r.max[1], r.resolution[0], r.resolution[1]
+            ));
+        }
+        s
+    }
+
+    fn fluorescence_line(&self) -> String {
+        let where_ = match (self.has_fluorescence(), self.has_fluorescent_media()) {
+            (false, false) => {
+                return "fluorescence none: plain HWSS, no shift sampling (--shifting has no effect)".into()
+            }
+            (true, true) => "surfaces and media",
+            (true, false) => "surfaces",
+            (false, true) => "media",
+        };
+        format!("fluorescence yes ({where_}): fluorescent HWSS, --shifting independent (default) or constant; --spectral mono for one wavelength per path")
+    }
+
+    fn media_line(&self) -> String {
+        if !self.has_media() {
+            return "media       none: no distance tracking".into();
+        }
+        let (t, why) = default_tracking(self);
+        let mut s = String::new();
+        let _ = write!(
+            s,
+            "media       {} ({}); default tracking {}: {why}",
+            self.medium_names.join(", "),
+            if self.has_fluorescent_media() {
+                "fluorescent"
+            } else {
+                "not fluorescent"
+            },
+            t.name()
+        );
+        s
+    }
+}

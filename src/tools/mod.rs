@@ -1,0 +1,15 @@
+//! Tools built on the renderer: what the `stokes` subcommands other than `render` do.
+//! Nothing in the renderer depends on them.
+//!
+//! - [`merge`]: `stokes merge`, the spp-weighted mean of renders with disjoint samples;
+//! - [`reference`]: `stokes reference`, long references that can be resumed;
+//! - [`converge`]: `stokes converge`, error against time and spp for several methods;
+//! - [`chart`]: the log–log charts `converge` draws;
+//! - [`bench_rays`], [`bench_render`]: `stokes bench rays|render`.
+
+pub mod bench_rays;
+pub mod bench_render;
+pub mod chart;
+pub mod converge;
+pub mod merge;
+pub mod reference;
