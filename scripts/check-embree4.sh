@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Compile-checks the Embree 4 code path on a Debian 12 machine (which ships Embree 3):
-# fetches Debian 13's libembree-dev 4.x headers without touching the system's apt state
-# (DESIGN.md §3), then runs `cargo check` against them. The library cannot run here
+# fetches Debian 13's libembree-dev 4.x headers without touching the system's apt state,
+# then runs `cargo check` against them. The library cannot run here
 # (it needs a newer glibc); this only proves the Embree 4 bindings and queries compile.
 set -euo pipefail
 cd "$(dirname "$0")/.."
