@@ -4,6 +4,7 @@
 
 use crate::accel::Ray;
 use crate::error::{Key, KeyError};
+use crate::simd::{Float, V3};
 use glam::Vec3;
 
 /// A pinhole camera.
@@ -100,10 +101,16 @@ impl Camera {
     /// The primary ray through film position (x, y) in pixels; the direction is unit.
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> Ray {
-        let sx = 2.0 * x / self.width as f32 - 1.0;
-        let sy = 1.0 - 2.0 * y / self.height as f32;
-        let dir = (self.forward + self.right * sx + self.up * sy).normalize();
-        Ray::new(self.position, dir)
+        Ray::new(self.position, self.dirs(x, y).into())
+    }
+
+    /// The unit directions of the primary rays through film positions (x, y) of W paths.
+    #[inline(always)]
+    pub fn dirs<F: Float>(&self, x: F, y: F) -> V3<F> {
+        let one = F::splat(1.0);
+        let sx = F::splat(2.0) * x / F::splat(self.width as f32) - one;
+        let sy = one - F::splat(2.0) * y / F::splat(self.height as f32);
+        (V3::splat(self.forward) + V3::splat(self.right) * sx + V3::splat(self.up) * sy).normalize()
     }
 }
 

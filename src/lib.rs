@@ -21,6 +21,7 @@ pub mod method;
 pub mod output;
 pub mod sampler;
 pub mod scene;
+pub mod simd;
 pub mod spectrum;
 pub mod tools;
 

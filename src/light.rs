@@ -17,6 +17,7 @@
 
 use crate::error::{Detail, Key, KeyError};
 use crate::scene::Context;
+use crate::simd::{Float, Lanes, Mask, V3};
 use crate::spectrum::{self, Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
 use serde::Deserialize;
@@ -192,6 +193,26 @@ pub struct LightSample {
     pub pdf_area: f32,
 }
 
+/// Points sampled on lights for W shading points ([`Lights::sample_towards_w`]).
+#[derive(Debug, Clone, Copy)]
+pub struct LightSamples<F: Float> {
+    /// The paths with a usable sample (a light was chosen, the point differs from the
+    /// shading point, and the light emits towards it).
+    pub valid: F::Mask,
+    /// The points.
+    pub p: V3<F>,
+    /// The unit front normals there.
+    pub n: V3<F>,
+    /// The emitters.
+    pub emitter: F::Arr<u32>,
+    /// The area densities (including the choice of triangle).
+    pub pdf_area: F,
+    /// The unit directions from the shading points.
+    pub wi: V3<F>,
+    /// The solid-angle densities at the shading points.
+    pub pdf: F,
+}
+
 /// All area lights of a scene.
 #[derive(Debug, Clone, Default)]
 pub struct Lights {
@@ -290,20 +311,86 @@ impl Lights {
 
     /// Samples a point on a light for next-event estimation at `p`: the point, the unit
     /// direction `wi` to it and the sample's pdf in solid angle at `p`; `None` if no
-    /// light is sampled, the point is `p` itself or the light faces away.
+    /// light is sampled, the point is `p` itself or the light faces away (one path's
+    /// [`Lights::sample_towards_w`]).
     #[inline]
     pub fn sample_towards(&self, p: Vec3, u: [f32; 3]) -> Option<(LightSample, Vec3, f32)> {
-        let ls = self.sample(u)?;
-        let to = ls.p - p;
+        let s = self.sample_towards_w(true, V3::from(p), u);
+        s.valid.then(|| {
+            let ls = LightSample {
+                p: s.p.into(),
+                n: s.n.into(),
+                emitter: s.emitter[0],
+                pdf_area: s.pdf_area,
+            };
+            (ls, s.wi.into(), s.pdf)
+        })
+    }
+
+    /// [`Lights::sample_towards`] for the W shading points `p` of the paths in `active`:
+    /// the light (chosen by power, a triangle by area) is picked path by path, the point,
+    /// direction and solid-angle pdf are computed for all paths at once.
+    #[inline(always)]
+    pub fn sample_towards_w<F: Float>(
+        &self,
+        active: F::Mask,
+        p: V3<F>,
+        u: [F; 3],
+    ) -> LightSamples<F> {
+        let mut s = LightSamples {
+            valid: F::Mask::splat(false),
+            p: V3::splat(Vec3::ZERO),
+            n: V3::splat(Vec3::Z),
+            emitter: Lanes::splat(0),
+            pdf_area: F::splat(0.0),
+            wi: V3::splat(Vec3::Z),
+            pdf: F::splat(0.0),
+        };
+        if self.triangles.is_empty() {
+            return s;
+        }
+        // Per path: the triangle, its corner and edges.
+        let (mut p0, mut e1, mut e2) = (s.p, s.p, s.p);
+        let mut chosen: F::Arr<bool> = Lanes::splat(false);
+        let mut two_sided: F::Arr<bool> = Lanes::splat(false);
+        for i in active.iter() {
+            let k = self.pick(u[0].get(i));
+            let t = &self.triangles[k];
+            if self.pmf[k] <= 0.0 || t.area <= 0.0 {
+                continue;
+            }
+            chosen[i] = true;
+            two_sided[i] = self.emitters[t.emitter as usize].two_sided;
+            p0.set_path(i, t.p0);
+            e1.set_path(i, t.e1);
+            e2.set_path(i, t.e2);
+            s.n.set_path(i, t.n);
+            s.emitter[i] = t.emitter;
+            s.pdf_area.set(i, self.pmf[k] / t.area);
+        }
+        // Uniform on the triangle (square-root parametrisation).
+        let su = u[1].sqrt();
+        let (b1, b2) = (F::splat(1.0) - su, u[2] * su);
+        s.p = p0 + e1 * b1 + e2 * b2;
+        let to = s.p - p;
         let d2 = to.length_squared();
         let d = d2.sqrt();
-        let wi = to / d;
-        let cos_l = ls.n.dot(-wi);
-        if d > 0.0 && self.emitters[ls.emitter as usize].emits_towards(cos_l) {
-            Some((ls, wi, ls.pdf_area * d2 / cos_l.abs()))
-        } else {
-            None
-        }
+        s.wi = to / d;
+        let cos_l = s.n.dot(-s.wi);
+        let zero = F::splat(0.0);
+        let two_sided = F::Mask::from_fn(|i| two_sided[i]);
+        let emits = cos_l.gt(zero) | (two_sided & cos_l.lt(zero));
+        s.valid = F::Mask::from_fn(|i| chosen[i]) & d.gt(zero) & emits;
+        s.pdf = s.pdf_area * d2 / cos_l.abs();
+        s
+    }
+
+    /// The triangle that selection sample `u` picks.
+    #[inline(always)]
+    fn pick(&self, u: f32) -> usize {
+        self.cdf
+            .partition_point(|&c| c <= u)
+            .min(self.triangles.len() - 1)
     }
 
     /// Samples a point on a light from three uniforms.
@@ -312,19 +399,17 @@ impl Lights {
         if self.triangles.is_empty() {
             return None;
         }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u[0])
-            .min(self.triangles.len() - 1);
+        let i = self.pick(u[0]);
         let t = &self.triangles[i];
         if self.pmf[i] <= 0.0 || t.area <= 0.0 {
             return None;
         }
-        // Uniform on the triangle (square-root parametrisation).
+        // Uniform on the triangle (square-root parametrisation), as sample_towards_w.
         let su = u[1].sqrt();
         let (b1, b2) = (1.0 - su, u[2] * su);
+        let p = V3::<f32>::from(t.p0) + V3::from(t.e1) * b1 + V3::from(t.e2) * b2;
         Some(LightSample {
-            p: t.p0 + t.e1 * b1 + t.e2 * b2,
+            p: p.into(),
             n: t.n,
             emitter: t.emitter,
             pdf_area: self.pmf[i] / t.area,

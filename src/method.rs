@@ -142,6 +142,23 @@ axis!(Rays, "rays", [
     Rays::Single => "single": "one path at a time through single-ray queries",
 ]);
 
+/// Which pixel samples start together in the lanes of a packet: not an axis of the
+/// method (the image does not depend on it: lanes are refilled as their paths end and
+/// every sample keeps its own random streams), a scheduling choice like the thread count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Layout {
+    /// The four pixels of a 2×2 quad, one sample index at a time.
+    #[default]
+    Quad,
+    /// Consecutive samples of one pixel (up to 16 per pass and pixel), as Mitsuba 3 does.
+    Pixel,
+}
+
+axis!(Layout, "layout", [
+    Layout::Quad => "quad": "a packet starts with the four pixels of a 2x2 quad",
+    Layout::Pixel => "pixel": "a packet starts with consecutive samples of one pixel",
+]);
+
 /// What a path does at a dispersive refraction, where its four wavelengths leave in four
 /// directions (HWSS only).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -5,7 +5,7 @@
 //! threads, and `--seed-offset` style splitting only needs disjoint sample indices.
 
 /// PCG32 (O'Neill 2014): 64-bit state, 32-bit output, selectable stream.
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct Pcg32 {
     state: u64,
     inc: u64,
@@ -68,7 +68,7 @@ impl Pcg32 {
 
 /// A second stream of one pixel sample, created on first use (only fluorescent vertices
 /// draw from it, so scenes without fluorescence never pay for it).
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct LazyStream {
     key: (u64, u64, u64),
     rng: Option<Pcg32>,

@@ -10,9 +10,28 @@ mod common;
 use common::stats::{chi_square, ChiSquare, Rng};
 use glam::{Vec3, Vec4};
 use stokes::medium::tracking::{
-    fluo_aware_norm, pdf_collision, pdf_collision_lane, prob_surface, prob_surface_lane,
-    sample_distance, transmittance, DistanceSample, Tracking,
+    fluo_aware_norm, pdf_collision_lane, prob_surface_lane, DistanceSample, Tracking,
 };
+
+/// The trackers at width 1 (one path), with the four lanes as a `Vec4`.
+mod one_path {
+    use glam::Vec4;
+    use stokes::medium::tracking::{self, DistanceSample, Tracking};
+
+    pub fn sample_distance(m: Tracking, st: Vec4, ss: Vec4, d: f32, u: f32) -> DistanceSample {
+        tracking::sample_distance1(m, st, ss, d, u)
+    }
+    pub fn pdf_collision(m: Tracking, st: Vec4, ss: Vec4, d: f32, t: f32) -> Vec4 {
+        tracking::pdf_collision(m, st.into(), ss.into(), d, t).into()
+    }
+    pub fn prob_surface(m: Tracking, st: Vec4, ss: Vec4, d: f32) -> Vec4 {
+        tracking::prob_surface(m, st.into(), ss.into(), d).into()
+    }
+    pub fn transmittance(st: Vec4, t: f32) -> Vec4 {
+        tracking::transmittance(st.into(), t).into()
+    }
+}
+use one_path::{pdf_collision, prob_surface, sample_distance, transmittance};
 use stokes::medium::{HenyeyGreenstein, Homogeneous};
 use stokes::method::Axis;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};

@@ -578,6 +578,46 @@ impl RayHit4 {
     }
 }
 
+/// Four rays in structure-of-arrays form, as the estimator holds them: origins and
+/// directions per coordinate, `t` in `[0, tfar]`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Rays4 {
+    /// Origins: x, y and z of the four rays.
+    pub org: [[f32; 4]; 3],
+    /// Directions.
+    pub dir: [[f32; 4]; 3],
+    /// Segment ends.
+    pub tfar: [f32; 4],
+}
+
+/// The closest hits of four rays in structure-of-arrays form; `geom[k]` is `u32::MAX`
+/// where ray k hit nothing (the other fields are then meaningless).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Hits4 {
+    /// Distances along the rays.
+    pub t: [f32; 4],
+    /// Unnormalised geometric normals, per coordinate.
+    pub ng: [[f32; 4]; 3],
+    /// Geometry ids.
+    pub geom: [u32; 4],
+    /// Triangle indices.
+    pub prim: [u32; 4],
+}
+
+impl RayHit4 {
+    /// A packet holding `rays`, hits cleared.
+    #[inline]
+    fn from_soa(rays: &Rays4) -> RayHit4 {
+        let mut p = RayHit4::new();
+        let r = &mut p.0.ray;
+        [r.org_x, r.org_y, r.org_z] = rays.org;
+        [r.dir_x, r.dir_y, r.dir_z] = rays.dir;
+        r.tfar = rays.tfar;
+        r.id = [0, 1, 2, 3];
+        p
+    }
+}
+
 /// The `valid` argument of the packet queries: −1 marks an active lane. Must be 16-byte
 /// aligned.
 #[repr(C, align(16))]
@@ -775,6 +815,36 @@ impl Scene {
             // SAFETY: as above, with Embree 4's argument struct.
             unsafe { sys::rtcOccluded4(valid.0.as_ptr(), self.raw, &mut packet.0.ray, &mut args) };
         }
+    }
+}
+
+impl Scene {
+    /// [`Scene::intersect4`] on rays in structure-of-arrays form.
+    #[inline]
+    pub fn intersect4_soa(&self, rays: &Rays4, active: [bool; 4], coherence: Coherence) -> Hits4 {
+        let mut packet = RayHit4::from_soa(rays);
+        self.intersect4(&mut packet, active, coherence);
+        let h = &packet.0.hit;
+        Hits4 {
+            t: packet.0.ray.tfar,
+            ng: [h.Ng_x, h.Ng_y, h.Ng_z],
+            geom: std::array::from_fn(|k| if active[k] { h.geomID[k] } else { u32::MAX }),
+            prim: h.primID,
+        }
+    }
+
+    /// [`Scene::occluded4`] on rays in structure-of-arrays form: which active rays are
+    /// blocked.
+    #[inline]
+    pub fn occluded4_soa(
+        &self,
+        rays: &Rays4,
+        active: [bool; 4],
+        coherence: Coherence,
+    ) -> [bool; 4] {
+        let mut packet = RayHit4::from_soa(rays);
+        self.occluded4(&mut packet, active, coherence);
+        std::array::from_fn(|k| active[k] && packet.occluded(k))
     }
 }
 

@@ -29,9 +29,10 @@ pub mod desc;
 pub use desc::{DyeDesc, IorDesc, IorTable, MaterialDesc, SellmeierDesc};
 
 use crate::fluoro::Reradiation;
+use crate::simd::{math, Float, Lanes, Mask, Spec, V3};
 use crate::spectrum::Spectrum;
 use glam::{Vec3, Vec4};
-use std::f32::consts::PI;
+use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 /// An index of refraction as a function of wavelength.
@@ -116,7 +117,7 @@ pub enum Material {
     },
 }
 
-/// A direction sampled from a material.
+/// A direction sampled from a material (one path; [`BsdfSamples`] for W paths).
 #[derive(Debug, Clone, Copy)]
 pub struct BsdfSample {
     /// The new direction (world space, unit length).
@@ -130,71 +131,88 @@ pub struct BsdfSample {
     pub specular: bool,
 }
 
+/// Directions sampled at W paths' vertices ([`Lobes::sample`]).
+#[derive(Debug, Clone, Copy)]
+pub struct BsdfSamples<F: Float> {
+    /// The paths that got a direction.
+    pub valid: F::Mask,
+    /// The new directions (unit length).
+    pub wi: V3<F>,
+    /// Per wavelength: f·|cos θᵢ| (for a specular event: the discrete weight).
+    pub f_cos: Spec<F>,
+    /// Per wavelength: the pdf with which that wavelength, as hero, would have sampled
+    /// `wi` (solid angle, or the probability of a specular event).
+    pub pdf: Spec<F>,
+    /// Dirac events: no light sampling at the vertex, no MIS on the next emitter hit.
+    pub specular: F::Mask,
+}
+
 /// An orthonormal basis around a unit normal (Duff et al. 2017).
 #[inline]
 pub fn basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    let (t, b) = V3::<f32>::from(n).basis();
+    (t.into(), b.into())
 }
 
-/// Cosine-weighted direction around `n` (unit).
+/// Cosine-weighted directions around the unit normals `n`.
+#[inline(always)]
+pub fn sample_cosine_w<F: Float>(n: V3<F>, u: [F; 2]) -> V3<F> {
+    let r = u[0].sqrt();
+    let (sin_phi, cos_phi) = math::sin_cos_turns(u[1]);
+    let (t, b) = n.basis();
+    let z = (F::splat(1.0) - u[0]).max(F::splat(0.0)).sqrt();
+    (t * (r * cos_phi) + b * (r * sin_phi) + n * z).normalize()
+}
+
+/// A cosine-weighted direction around `n` (unit).
 #[inline]
 pub fn sample_cosine(n: Vec3, u: [f32; 2]) -> Vec3 {
-    let r = u[0].sqrt();
-    let phi = 2.0 * PI * u[1];
-    let (t, b) = basis(n);
-    let z = (1.0 - u[0]).max(0.0).sqrt();
-    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
+    sample_cosine_w(V3::from(n), u).into()
 }
 
 /// The solid-angle density with which [`sample_cosine`] produces a direction at cosine
 /// `cos_theta` to its axis: cos θ / π in the hemisphere, 0 below it.
-#[inline]
-pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) / PI
+#[inline(always)]
+pub fn cosine_hemisphere_pdf<F: Float>(cos_theta: F) -> F {
+    cos_theta.max(F::splat(0.0)) * F::splat(FRAC_1_PI)
 }
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric; `cos_i` > 0 on the incident
 /// side, `eta` = n_transmitted / n_incident.
-#[inline]
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+#[inline(always)]
+pub fn fresnel_dielectric<F: Float>(cos_i: F, eta: F) -> F {
+    let one = F::splat(1.0);
     let cos_i = cos_i.clamp(0.0, 1.0);
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+    let sin2_t = (one - cos_i * cos_i) / (eta * eta);
+    let cos_t = (one - sin2_t).max(F::splat(0.0)).sqrt();
     let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parl * r_parl + r_perp * r_perp)
+    let r = F::splat(0.5) * (r_parl * r_parl + r_perp * r_perp);
+    F::select(sin2_t.ge(one), one, r)
 }
 
 /// Mirror `wo` about `n`.
-#[inline]
-pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
-    2.0 * wo.dot(n) * n - wo
+#[inline(always)]
+pub fn reflect<F: Float>(wo: V3<F>, n: V3<F>) -> V3<F> {
+    n * (F::splat(2.0) * wo.dot(n)) - wo
 }
 
 /// Refracts `wo` (pointing away from the surface, on the side of `n`) with relative index
-/// `eta` = n_t/n_i; `None` on total internal reflection.
-#[inline]
-pub fn refract(wo: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+/// `eta` = n_t/n_i: the direction, and the paths that refract (the others are totally
+/// internally reflected; their direction is meaningless).
+#[inline(always)]
+pub fn refract<F: Float>(wo: V3<F>, n: V3<F>, eta: F) -> (V3<F>, F::Mask) {
+    let one = F::splat(1.0);
     let cos_i = wo.dot(n);
-    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    Some((-wo / eta + (cos_i / eta - cos_t) * n).normalize())
+    let sin2_t = (one - cos_i * cos_i).max(F::splat(0.0)) / (eta * eta);
+    let cos_t = (one - sin2_t).max(F::splat(0.0)).sqrt();
+    let wi = (-wo / eta + n * (cos_i / eta - cos_t)).normalize();
+    (wi, sin2_t.lt(one))
 }
 
-/// A material with its spectral parameters evaluated at a path's four wavelengths, so
-/// that light sampling and BSDF sampling at one vertex evaluate the spectra once.
+/// A material with its spectral parameters evaluated at one path's four wavelengths, so
+/// that light sampling and BSDF sampling at one vertex evaluate the spectra once
+/// ([`Lobes`] holds W of them).
 #[derive(Debug, Clone, Copy)]
 pub enum Lobe {
     /// Lambertian with per-lane albedo.
@@ -226,99 +244,25 @@ impl Lobe {
         !matches!(self, Lobe::Diffuse(_))
     }
 
-    /// f·|cos θᵢ| and the per-lane pdf of sampling `wi`, for light sampling and MIS.
-    /// `n` is the geometric normal, `wo` points back along the incoming ray.
+    /// f·|cos θᵢ| and the per-lane pdf of sampling `wi` ([`Lobes::eval`] for one path).
     #[inline]
     pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3) -> (Vec4, Vec4) {
-        match self {
-            Lobe::Diffuse(albedo) => {
-                let (co, ci) = (n.dot(wo), n.dot(wi));
-                if co * ci <= 0.0 {
-                    return (Vec4::ZERO, Vec4::ZERO);
-                }
-                // Lambertian: f·cos θ = albedo·cos θ/π, exactly the sampling density.
-                let pdf = cosine_hemisphere_pdf(ci.abs());
-                (*albedo * pdf, Vec4::splat(pdf))
-            }
-            _ => (Vec4::ZERO, Vec4::ZERO),
-        }
+        let (f, pdf) = Lobes::<f32>::one(*self).eval(n.into(), wo.into(), wi.into());
+        (f.into(), pdf.into())
     }
 
-    /// Samples a direction with the hero's wavelength (lane 0). `uc` picks between
-    /// reflection and refraction, `u` is the 2-D sample for a direction.
+    /// Samples a direction with the hero's wavelength ([`Lobes::sample`] for one path).
     #[inline]
     pub fn sample(&self, n: Vec3, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSample> {
-        match self {
-            Lobe::Diffuse(albedo) => {
-                let ns = if n.dot(wo) < 0.0 { -n } else { n };
-                let wi = sample_cosine(ns, u);
-                let c = ns.dot(wi);
-                if c <= 0.0 {
-                    return None;
-                }
-                let pdf = cosine_hemisphere_pdf(c);
-                Some(BsdfSample {
-                    wi,
-                    f_cos: *albedo * pdf,
-                    pdf: Vec4::splat(pdf),
-                    specular: false,
-                })
-            }
-            Lobe::Mirror(reflectance) => {
-                let ns = if n.dot(wo) < 0.0 { -n } else { n };
-                Some(BsdfSample {
-                    wi: reflect(wo, ns),
-                    f_cos: *reflectance,
-                    pdf: Vec4::ONE,
-                    specular: true,
-                })
-            }
-            Lobe::Dielectric(n_in, ext_ior) => {
-                let (ns, eta, fr) = dielectric_at(*n_in, *ext_ior, n, wo);
-                if uc < fr.x {
-                    // Reflection: the same direction for every lane.
-                    Some(BsdfSample {
-                        wi: reflect(wo, ns),
-                        f_cos: fr,
-                        pdf: fr,
-                        specular: true,
-                    })
-                } else {
-                    let wi = refract(wo, ns, eta.x)?;
-                    let t = Vec4::ONE - fr;
-                    // Lanes whose index differs from the hero's refract elsewhere: drop them.
-                    let same = eta.cmpeq(Vec4::splat(eta.x));
-                    let keep = Vec4::select(same, Vec4::ONE, Vec4::ZERO);
-                    Some(BsdfSample {
-                        wi,
-                        f_cos: keep * t / (eta * eta),
-                        pdf: keep * t,
-                        specular: true,
-                    })
-                }
-            }
-        }
+        let s = Lobes::<f32>::one(*self).sample(n.into(), wo.into(), uc, u);
+        s.valid.then(|| BsdfSample {
+            wi: s.wi.into(),
+            f_cos: s.f_cos.into(),
+            pdf: s.pdf.into(),
+            specular: s.specular,
+        })
     }
-}
 
-/// A dielectric seen along `wo` from the side of geometric normal `n`: the normal on
-/// `wo`'s side, the relative index n_t/n_i per lane and the per-lane Fresnel reflectance.
-#[inline]
-fn dielectric_at(n_in: Vec4, ext_ior: f32, n: Vec3, wo: Vec3) -> (Vec3, Vec4, Vec4) {
-    let cos_o = n.dot(wo);
-    let entering = cos_o > 0.0;
-    let ns = if entering { n } else { -n };
-    let eta = if entering {
-        n_in / ext_ior
-    } else {
-        Vec4::splat(ext_ior) / n_in
-    };
-    let c = cos_o.abs();
-    let fr = Vec4::from_array(std::array::from_fn(|k| fresnel_dielectric(c, eta[k])));
-    (ns, eta, fr)
-}
-
-impl Lobe {
     /// The refraction of every lane at a dielectric, for splitting a path whose lanes
     /// leave a dispersive interface in different directions. Per lane: its own refracted
     /// direction (`None` under total internal reflection), f·|cos θᵢ| = (1 − F)/η², and
@@ -329,11 +273,166 @@ impl Lobe {
         let Lobe::Dielectric(n_in, ext_ior) = *self else {
             return None;
         };
-        let (ns, eta, fr) = dielectric_at(n_in, ext_ior, n, wo);
-        let t = Vec4::ONE - fr;
-        let wi = std::array::from_fn(|k| refract(wo, ns, eta[k]));
-        Some((wi, t / (eta * eta), t))
+        let (n, wo) = (V3::<f32>::from(n), V3::<f32>::from(wo));
+        let (ns, eta, fr) = dielectric_at(Spec::from(n_in), ext_ior, n, wo);
+        let t = Spec::splat(1.0) - fr;
+        let wi = std::array::from_fn(|k| match refract(wo, ns, eta[k]) {
+            (wi, true) => Some(wi.into()),
+            _ => None,
+        });
+        Some((wi, (t / (eta * eta)).into(), t.into()))
     }
+}
+
+/// The surfaces at W paths' vertices, evaluated at their wavelengths: each path one lobe
+/// kind with its spectral parameters. Every routine evaluates each kind present once, for
+/// all the paths at once, and keeps the result where the kind applies.
+#[derive(Debug, Clone, Copy)]
+pub struct Lobes<F: Float> {
+    /// The Lambertian paths.
+    pub diffuse: F::Mask,
+    /// The mirror paths.
+    pub mirror: F::Mask,
+    /// The dielectric paths.
+    pub dielectric: F::Mask,
+    /// Diffuse albedo or mirror reflectance.
+    pub albedo: Spec<F>,
+    /// Dielectric interior index per wavelength.
+    pub n_in: Spec<F>,
+    /// Dielectric exterior index.
+    pub ext_ior: F,
+}
+
+impl<F: Float> Lobes<F> {
+    /// The lobes of the paths in `active`: path i's is `lobe(i)`.
+    #[inline(always)]
+    pub fn from_fn(active: F::Mask, mut lobe: impl FnMut(usize) -> Lobe) -> Lobes<F> {
+        let mut kind: F::Arr<u8> = Lanes::splat(0);
+        let (mut albedo, mut n_in) = (Spec::splat(1.0), Spec::splat(1.0));
+        let mut ext_ior = F::splat(1.0);
+        for i in active.iter() {
+            match lobe(i) {
+                Lobe::Diffuse(a) => {
+                    kind[i] = 1;
+                    albedo.set_path(i, a);
+                }
+                Lobe::Mirror(r) => {
+                    kind[i] = 2;
+                    albedo.set_path(i, r);
+                }
+                Lobe::Dielectric(n, ext) => {
+                    kind[i] = 3;
+                    n_in.set_path(i, n);
+                    ext_ior.set(i, ext);
+                }
+            }
+        }
+        Lobes {
+            diffuse: F::Mask::from_fn(|i| kind[i] == 1),
+            mirror: F::Mask::from_fn(|i| kind[i] == 2),
+            dielectric: F::Mask::from_fn(|i| kind[i] == 3),
+            albedo,
+            n_in,
+            ext_ior,
+        }
+    }
+
+    /// One path's lobe (width 1).
+    #[inline(always)]
+    pub fn one(lobe: Lobe) -> Lobes<F> {
+        Lobes::from_fn(F::Mask::splat(true), |_| lobe)
+    }
+
+    /// The paths whose every scattering event is a Dirac delta (no light sampling helps).
+    #[inline(always)]
+    pub fn is_specular(&self) -> F::Mask {
+        !self.diffuse
+    }
+
+    /// f·|cos θᵢ| and the per-wavelength pdf of sampling `wi`, for light sampling and MIS;
+    /// 0 for specular lobes. `n` is the geometric normal, `wo` points back along the
+    /// incoming ray.
+    #[inline(always)]
+    pub fn eval(&self, n: V3<F>, wo: V3<F>, wi: V3<F>) -> (Spec<F>, Spec<F>) {
+        let (co, ci) = (n.dot(wo), n.dot(wi));
+        let ok = self.diffuse & (co * ci).gt(F::splat(0.0));
+        // Lambertian: f·cos θ = albedo·cos θ/π, exactly the sampling density.
+        let pdf = cosine_hemisphere_pdf(ci.abs()).masked(ok);
+        (self.albedo * pdf, Spec::broadcast(pdf))
+    }
+
+    /// Samples a direction with each path's hero wavelength (lane 0). `uc` picks between
+    /// reflection and refraction, `u` is the 2-D sample for a direction.
+    #[inline(always)]
+    pub fn sample(&self, n: V3<F>, wo: V3<F>, uc: F, u: [F; 2]) -> BsdfSamples<F> {
+        let zero = F::splat(0.0);
+        let mut s = BsdfSamples {
+            valid: F::Mask::splat(false),
+            wi: V3::splat(Vec3::ZERO),
+            f_cos: Spec::zero(),
+            pdf: Spec::zero(),
+            specular: !self.diffuse,
+        };
+        let ns = V3::select(n.dot(wo).lt(zero), -n, n);
+        if self.diffuse.any() {
+            let wi = sample_cosine_w(ns, u);
+            let c = ns.dot(wi);
+            let ok = self.diffuse & c.gt(zero);
+            let pdf = cosine_hemisphere_pdf(c);
+            s.valid |= ok;
+            s.wi.set_where(ok, wi);
+            s.f_cos.set_where(ok, self.albedo * pdf);
+            s.pdf.set_where(ok, Spec::broadcast(pdf));
+        }
+        if self.mirror.any() {
+            let m = self.mirror;
+            s.valid |= m;
+            s.wi.set_where(m, reflect(wo, ns));
+            s.f_cos.set_where(m, self.albedo);
+            s.pdf.set_where(m, Spec::splat(1.0));
+        }
+        if self.dielectric.any() {
+            let (ns, eta, fr) = dielectric_at(self.n_in, self.ext_ior, n, wo);
+            // Reflection: the same direction for every lane.
+            let refl = self.dielectric & uc.lt(fr.hero());
+            s.valid |= refl;
+            s.wi.set_where(refl, reflect(wo, ns));
+            s.f_cos.set_where(refl, fr);
+            s.pdf.set_where(refl, fr);
+            let (wi, ok) = refract(wo, ns, eta.hero());
+            let refr = self.dielectric & !refl & ok;
+            if refr.any() {
+                let t = Spec::splat(1.0) - fr;
+                // Lanes whose index differs from the hero's refract elsewhere: drop them.
+                let hero = eta.hero();
+                let keep = eta.map(|e| F::splat(1.0).masked(e.eq(hero)));
+                s.valid |= refr;
+                s.wi.set_where(refr, wi);
+                s.f_cos.set_where(refr, keep * t / (eta * eta));
+                s.pdf.set_where(refr, keep * t);
+            }
+        }
+        s
+    }
+}
+
+/// A dielectric seen along `wo` from the side of geometric normal `n`: the normal on
+/// `wo`'s side, the relative index n_t/n_i per wavelength and the per-wavelength Fresnel
+/// reflectance.
+#[inline(always)]
+fn dielectric_at<F: Float>(
+    n_in: Spec<F>,
+    ext_ior: F,
+    n: V3<F>,
+    wo: V3<F>,
+) -> (V3<F>, Spec<F>, Spec<F>) {
+    let cos_o = n.dot(wo);
+    let entering = cos_o.gt(F::splat(0.0));
+    let ns = V3::select(entering, n, -n);
+    let eta = n_in.map(|ni| F::select(entering, ni / ext_ior, ext_ior / ni));
+    let c = cos_o.abs();
+    let fr = eta.map(|e| fresnel_dielectric(c, e));
+    (ns, eta, fr)
 }
 
 #[cfg(test)]
@@ -351,7 +450,8 @@ mod tests {
     fn refraction_obeys_snell() {
         let n = Vec3::Z;
         let wo = Vec3::new(0.6, 0.0, 0.8);
-        let wi = refract(wo, n, 1.5).unwrap();
+        let (wi, ok) = refract(V3::<f32>::from(wo), V3::from(n), 1.5);
+        assert!(ok);
         let sin_o = 0.6f32;
         let sin_i = (1.0 - wi.z * wi.z).sqrt();
         assert!((sin_o - 1.5 * sin_i).abs() < 1e-5);

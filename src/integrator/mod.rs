@@ -1,5 +1,7 @@
 //! Unidirectional spectral path tracing with next-event estimation, MIS between light and
-//! BSDF sampling, Russian roulette, and hero wavelength spectral sampling (HWSS).
+//! BSDF sampling, Russian roulette, and hero wavelength spectral sampling (HWSS), written
+//! once over the lane width ([`crate::simd`]): W camera paths advance together, W = 1 for
+//! single rays and W = 4 for Embree's 4-wide packets.
 //!
 //! Bookkeeping of one path over its four lanes (lane 0 is the hero, which drives every
 //! sampling decision):
@@ -11,22 +13,28 @@
 //! over the four "hero = j" techniques — and, at a vertex where light sampling and BSDF
 //! sampling compete, the denominator becomes Σ_j ratio[j]·(p_light,j + p_bsdf,j) in the
 //! hero's units. Monochromatic mode is the same code with lanes 1–3 dead from the start
-//! (`ratio = (1, 0, 0, 0)`).
+//! (`ratio = (1, 0, 0, 0)`). docs/design.md §3 derives the rules.
+//!
+//! - [`path`]: [`path::Paths`], the state of W paths, and `step`, the estimator;
+//! - [`shadow`]: next-event shadow rays, traced after the step (through media one
+//!   segment at a time);
+//! - [`trace`]: the driver that feeds pixel samples to the W lanes and Embree;
+//! - [`render`]: passes, the film and progressive renders.
 
-pub mod packet;
 pub mod path;
 pub mod render;
+pub mod shadow;
+pub mod trace;
 
 use crate::accel::Ray;
 use crate::fluoro::Reradiation;
-use crate::medium::tracking::{self, Tracking};
 use crate::medium::Homogeneous;
 use crate::method::{Resolved, Shifting};
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
+use crate::simd::{Float, Spec, V3};
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
-use path::Path;
 
 /// Counters of one render (summed over threads).
 #[derive(Debug, Default, Clone, Copy)]
@@ -57,9 +65,16 @@ impl PathStats {
 }
 
 /// Offset for spawning rays off a surface, relative to the scene's scale.
-#[inline]
-pub(crate) fn spawn_eps(p: Vec3) -> f32 {
-    1e-4 * (1.0 + p.abs().max_element())
+#[inline(always)]
+pub(crate) fn spawn_eps<F: Float>(p: V3<F>) -> F {
+    F::splat(1e-4) * (F::splat(1.0) + p.abs_max())
+}
+
+/// `p` pushed off its surface (normal `n`) by [`spawn_eps`] to the side `dir` leaves
+/// towards.
+#[inline(always)]
+pub(crate) fn offset<F: Float>(p: V3<F>, n: V3<F>, dir: V3<F>) -> V3<F> {
+    p + n * (spawn_eps(p) * F::splat(1.0).copysign(n.dot(dir)))
 }
 
 /// Everything that selects an estimator, besides the random numbers: the method (with
@@ -72,182 +87,45 @@ pub struct PathOptions {
     pub max_depth: i32,
 }
 
-/// The last emitter's spectral radiance at the path's wavelengths: a path meets the same
-/// light again and again (every light sample, every emitter hit), and its wavelengths do
-/// not change between fluorescent events.
-#[derive(Default, Clone)]
-struct EmissionCache {
-    emitter: Option<u32>,
-    value: Vec4,
-}
-
-impl EmissionCache {
-    #[inline]
-    fn get(&mut self, e: u32, lambda: Vec4, lights: &crate::light::Lights) -> Vec4 {
-        if self.emitter != Some(e) {
-            self.emitter = Some(e);
-            self.value = lights.emitters[e as usize].spectral_radiance(lambda);
-        }
-        self.value
-    }
-}
-
-/// A shadow ray between two points, each pushed off its surface (`n = 0` for a point in
-/// a medium) towards the other. The ray runs between the *offset* points: measuring the
-/// length from the unshifted point instead makes the ray reach the light's own surface at
-/// grazing angles.
+/// Shadow rays between points, each pushed off its surface (`n = 0` for a point in a
+/// medium) towards the other: origins, unit directions and segment ends. The rays run
+/// between the *offset* points: measuring the length from the unshifted point instead
+/// makes the ray reach the light's own surface at grazing angles.
 #[inline(always)]
-pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, nq: Vec3, wi: Vec3) -> Ray {
-    let org = p + n * (spawn_eps(p) * n.dot(wi).signum());
-    let target = q - nq * (spawn_eps(q) * nq.dot(wi).signum());
+pub fn shadow_ray<F: Float>(
+    p: V3<F>,
+    n: V3<F>,
+    q: V3<F>,
+    nq: V3<F>,
+    wi: V3<F>,
+) -> (V3<F>, V3<F>, F) {
+    let org = offset(p, n, wi);
+    let target = q - nq * (spawn_eps(q) * F::splat(1.0).copysign(nq.dot(wi)));
     let to = target - org;
     let len = to.length();
-    Ray {
-        org,
-        dir: to / len,
-        tnear: 0.0,
-        tfar: len * (1.0 - 1e-5),
-    }
+    (org, to / len, len * F::splat(1.0 - 1e-5))
 }
 
 /// The medium on the other side of geometry `geom` for a ray travelling along `dir`
-/// (meshes bounding a medium face outwards).
+/// (meshes bounding a medium face outwards); [`NO_MEDIUM`] for none.
 #[inline]
-fn medium_after_crossing(scene: &Scene, geom: u32, ng: Vec3, dir: Vec3) -> Option<u32> {
+fn medium_after_crossing(scene: &Scene, geom: u32, ng: Vec3, dir: Vec3) -> u32 {
     let g = &scene.geometries[geom as usize];
-    if dir.dot(ng) < 0.0 {
+    let m = if dir.dot(ng) < 0.0 {
         g.interior
     } else {
         g.exterior
-    }
+    };
+    m.unwrap_or(NO_MEDIUM)
 }
 
-/// A next-event shadow ray through media, traced one segment at a time: each segment
-/// ends at the next surface; an index-matched medium boundary is crossed, anything else
-/// blocks the ray. Every medium segment multiplies the transmittance e^{−σ̂_t d} (per
-/// lane) and, for MIS, the probability that `tracking` would have passed the segment
-/// with lane j as hero.
-#[derive(Debug, Clone, Copy)]
-pub struct MediaShadow {
-    /// The medium the current segment runs in.
-    medium: Option<u32>,
-    /// The path's wavelengths.
-    lambda: Vec4,
-    /// The path's MIS ratios at the vertex.
-    ratio: Vec4,
-    /// Solid-angle pdf of the light sample.
-    p_light: f32,
-    /// Per-lane pdf of BSDF or phase sampling the same direction.
-    pdf_dir: Vec4,
-    /// Transmittance so far.
-    tr: Vec4,
-    /// Tracking pass probability so far.
-    pass: Vec4,
-    /// Boundaries crossed so far.
-    crossings: u32,
-}
-
-/// Where a shadow ray stands after one traced segment.
-pub enum ShadowStep {
-    /// Something opaque is in the way (or the ray crossed too many boundaries).
-    Blocked,
-    /// The light is reached: the path adds this.
-    Reached(Vec4),
-    /// A boundary was crossed: trace the query's ray again.
-    Continue,
-}
-
-impl MediaShadow {
-    /// A shadow ray leaving in `medium`, for a vertex with MIS ratios `ratio`, light pdf
-    /// `p_light` and direction-sampling pdf `pdf_dir`.
-    pub(crate) fn new(
-        medium: Option<u32>,
-        lambda: Vec4,
-        ratio: Vec4,
-        p_light: f32,
-        pdf_dir: Vec4,
-    ) -> MediaShadow {
-        MediaShadow {
-            medium,
-            lambda,
-            ratio,
-            p_light,
-            pdf_dir,
-            tr: Vec4::ONE,
-            pass: Vec4::ONE,
-            crossings: 0,
-        }
-    }
-
-    /// Accounts for the segment of `ray` that ended at `hit` (`None`: at the light) and,
-    /// on a crossing, moves `ray` on to the next segment. `base` is the contribution
-    /// before transmittance and MIS (β·f·L_e).
-    pub fn segment(
-        &mut self,
-        scene: &Scene,
-        ray: &mut Ray,
-        hit: Option<crate::accel::Hit>,
-        tracking: Tracking,
-        base: Vec4,
-    ) -> ShadowStep {
-        let seg = hit.map_or(ray.tfar, |h| h.t);
-        if let Some(m) = self.medium {
-            let med = &scene.media[m as usize];
-            let (st, ss) = (med.sigma_t_hat(self.lambda), med.sigma_s_hat(self.lambda));
-            let len = seg * ray.dir.length();
-            self.tr *= tracking::transmittance(st, len);
-            self.pass *= tracking::prob_surface(tracking, st, ss, len);
-        }
-        let reached = |s: &MediaShadow| {
-            let denom = (s.ratio * (Vec4::splat(s.p_light) + s.pdf_dir * s.pass)).element_sum();
-            ShadowStep::Reached(base * s.tr / denom)
-        };
-        let Some(h) = hit else {
-            return reached(self);
-        };
-        let g = &scene.geometries[h.geom_id as usize];
-        self.crossings += 1;
-        if !g.is_null_interface() || self.crossings > 64 {
-            return ShadowStep::Blocked;
-        }
-        let ng = h.ng.normalize();
-        self.medium = medium_after_crossing(scene, h.geom_id, ng, ray.dir);
-        let p = ray.org + ray.dir * h.t;
-        let eps = spawn_eps(p);
-        let org = p + ng * (eps * ng.dot(ray.dir).signum());
-        let rest = ray.tfar - h.t - eps;
-        if rest <= 0.0 {
-            return reached(self);
-        }
-        *ray = Ray {
-            org,
-            dir: ray.dir,
-            tnear: 0.0,
-            tfar: rest,
-        };
-        ShadowStep::Continue
-    }
-}
-
-/// A vertex that BSDF or phase sampling left, remembered for MIS when the continuation
-/// lands on a light.
-#[derive(Clone, Copy)]
-struct PrevVertex {
-    /// Per-lane pdf (solid angle) of the sampled direction.
-    pdf_dir: Vec4,
-    /// The prefix ratios before that sample.
-    ratio: Vec4,
-    /// The vertex.
-    p: Vec3,
-    /// Per-lane probability that tracking passed every medium segment since.
-    pass: Vec4,
-}
+/// "In no medium", in the per-path medium indices.
+pub const NO_MEDIUM: u32 = u32::MAX;
 
 /// Radiance along a camera ray at the wavelengths `lambda`, already weighted by the
 /// balance heuristic over lanes: summing `xyz(λ_k)·L_k / pdf(λ)` over the lanes gives an
 /// unbiased XYZ estimate (at the camera's wavelengths, whatever shifts happen later).
-/// Single rays, depth first; see [`path`] for the steps and [`packet`] for the same
-/// estimator over 4-wide packets.
+/// One path traced with single rays ([`trace::trace_one`]); renders trace W at a time.
 ///
 /// `shift_rng` draws the wavelength shifts at fluorescent events: a stream of its own,
 /// so that a scene renders with the same main random numbers whether or not a material
@@ -261,86 +139,8 @@ pub fn radiance(
     shift_rng: LazyStream,
     stats: &mut PathStats,
 ) -> Vec4 {
-    let mut path = Path::new(scene, camera_ray, lambda, opts, rng, shift_rng, 0);
-    // Scenes without media get a path loop with the medium code compiled out.
-    if scene.has_media() {
-        trace_single::<true>(scene, opts, &mut path, stats)
-    } else {
-        trace_single::<false>(scene, opts, &mut path, stats)
-    }
-}
-
-/// Runs `path` and the paths it splits into to the end with single-ray queries.
-fn trace_single<const MEDIA: bool>(
-    scene: &Scene,
-    opts: &PathOptions,
-    path: &mut Path,
-    stats: &mut PathStats,
-) -> Vec4 {
-    let mut acc = Vec4::ZERO;
-    let mut split: Vec<Path> = Vec::new(); // allocates only when a path splits
-    run_single::<MEDIA>(scene, opts, path, stats, &mut split);
-    path.add_to(&mut acc);
-    while let Some(mut child) = split.pop() {
-        run_single::<MEDIA>(scene, opts, &mut child, stats, &mut split);
-        child.add_to(&mut acc);
-    }
-    acc
-}
-
-/// Steps one path to its end, tracing each query as it comes (paths are advanced in
-/// place: they are a few hundred bytes, and copying them showed in profiles).
-#[inline(always)]
-fn run_single<const MEDIA: bool>(
-    scene: &Scene,
-    opts: &PathOptions,
-    p: &mut Path,
-    stats: &mut PathStats,
-    split: &mut Vec<Path>,
-) {
-    let mut shadow = None;
-    loop {
-        let hit = scene.accel.intersect1(&p.ray);
-        let alive = p.step::<MEDIA>(scene, opts, hit, stats, &mut shadow, split);
-        if let Some(s) = shadow.as_mut() {
-            match s.media.as_mut() {
-                None => {
-                    if !scene.accel.occluded1(&s.ray) {
-                        p.l += s.contribution;
-                    }
-                }
-                Some(m) => loop {
-                    let hit = scene.accel.intersect1(&s.ray);
-                    match m.segment(scene, &mut s.ray, hit, opts.method.tracking, s.contribution) {
-                        ShadowStep::Blocked => break,
-                        ShadowStep::Reached(c) => {
-                            p.l += c;
-                            break;
-                        }
-                        ShadowStep::Continue => stats.rays += 1,
-                    }
-                },
-            }
-            shadow = None;
-        }
-        if !alive {
-            break;
-        }
-    }
-}
-
-/// Russian roulette on the weighted throughput after the third bounce: `false` ends the
-/// path, otherwise `beta` is divided by the survival probability.
-#[inline]
-fn russian_roulette(beta: &mut Vec4, depth: i32, rng: &mut Pcg32) -> bool {
-    if depth >= 3 {
-        let q = beta.max_element().min(0.95);
-        if rng.next_f32() >= q {
-            return false;
-        }
-        *beta /= q;
-    }
-    true
+    let path = path::Paths::camera(scene, camera_ray, lambda, opts, rng, shift_rng);
+    trace::trace_one(scene, opts, path, stats)
 }
 
 /// A wavelength-shifting scattering event: re-radiation at a fluorescent surface (D =
@@ -399,10 +199,11 @@ impl ShiftModel for Homogeneous {
     }
 }
 
-/// Samples the input wavelengths at a fluorescent vertex of a camera path and updates the
-/// lanes: `lambda` becomes the wavelengths before re-radiation, `beta` takes the value over
-/// the hero's pdf, `ratio` the pdf ratios of the "lane j as hero" techniques. Returns
-/// `false` when the hero cannot continue (the path ends).
+/// Samples the input wavelengths at a fluorescent vertex of one camera path and updates
+/// its lanes: `lambda` becomes the wavelengths before re-radiation, `beta` takes the value
+/// over the hero's pdf, `ratio` the pdf ratios of the "lane j as hero" techniques. Returns
+/// `false` when the hero cannot continue (the path ends). A path's shift is sampled from
+/// table searches lane by lane, so W paths call this one after the other.
 ///
 /// - Independent: each live lane draws its own shift; its weight is M_k/q_k = D + σ_se at
 ///   its wavelength, and the shift pdfs, common to every technique, cancel from `ratio`.
@@ -472,4 +273,23 @@ pub fn shift_wavelengths(
             true
         }
     }
+}
+
+/// Path `i` of `lambda`, `beta` and `ratio` through [`shift_wavelengths`].
+#[inline]
+fn shift_path<F: Float>(
+    rr: &(impl ShiftModel + ?Sized),
+    mode: Shifting,
+    i: usize,
+    lambda: &mut Spec<F>,
+    beta: &mut Spec<F>,
+    ratio: &mut Spec<F>,
+    rng: &mut Pcg32,
+) -> bool {
+    let (mut l, mut b, mut r) = (lambda.path(i), beta.path(i), ratio.path(i));
+    let alive = shift_wavelengths(rr, mode, &mut l, &mut b, &mut r, rng);
+    lambda.set_path(i, l);
+    beta.set_path(i, b);
+    ratio.set_path(i, r);
+    alive
 }

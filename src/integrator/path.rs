@@ -1,384 +1,787 @@
-//! One camera path as a state machine, so that single-ray and packet tracing run the
-//! same estimator: a driver traces the path's current ray, hands the hit to
-//! [`Path::step`], traces the shadow ray the step asked for, and repeats until the path
-//! ends. The single-ray driver ([`super::radiance`]) does this for one path, depth
-//! first; the packet driver ([`super::packet`]) for many paths at once, four rays per
-//! Embree query.
+//! The estimator: the state of W camera paths ([`Paths`]) and the step that advances all
+//! of them by one ray query at once. A driver ([`super::trace`]) traces the paths' rays,
+//! hands the hits to [`Paths::step`], traces the shadow rays the step asked for, and
+//! repeats; a path that ends leaves its lane to the next pixel sample.
+//!
+//! Every path decides for itself (a collision in a medium or a surface, a light that
+//! faces it or not, which lobe it hits, Russian roulette), so the step works on masks: it
+//! computes each part for every path it concerns at once and keeps the result where that
+//! part applies. Random numbers are drawn path by path, only for the paths the part
+//! concerns, so a path draws the same numbers in the same order at every width — and
+//! computes the same bits, since every operation is lane-wise ([`crate::simd`]).
 //!
 //! A shadow ray is deferred, not traced inside the step: its contribution depends on
-//! nothing the step computes afterwards and the step draws no random numbers for it, so
-//! a path's random numbers and its sum of contributions come out in the same order under
-//! both drivers. With media, a shadow ray crosses index-matched boundaries one segment
-//! at a time ([`MediaShadow`]); the drivers trace each segment as a query of its own.
+//! nothing the step computes afterwards and the step draws no random numbers for it.
 
+use super::shadow::Shadows;
+use super::trace::Hits;
 use super::{
-    medium_after_crossing, russian_roulette, shadow_ray, shift_wavelengths, spawn_eps,
-    EmissionCache, MediaShadow, PathOptions, PathStats, PrevVertex, ShiftModel,
+    medium_after_crossing, offset, shadow_ray, shift_path, PathOptions, PathStats, NO_MEDIUM,
 };
-use crate::accel::{Hit, Ray};
-use crate::bsdf::{Lobe, Material};
-use crate::medium::tracking::{self, DistanceSample};
+use crate::accel::Ray;
+use crate::bsdf::{Lobe, Lobes, Material};
+use crate::light::Lights;
+use crate::medium::phase::Hg;
+use crate::medium::tracking;
 use crate::method::{Dispersion, Shifting, Spectral};
 use crate::sampler::{mix64, LazyStream, Pcg32};
 use crate::scene::Scene;
+use crate::simd::{Float, Lanes, Mask, Spec, V3};
 use glam::{Vec3, Vec4};
-
-/// A next-event shadow ray the path asks its driver to trace.
-#[derive(Debug, Clone, Copy)]
-pub struct ShadowQuery {
-    /// From the shading point to the light sample (in media: the current segment).
-    pub ray: Ray,
-    /// Without media: what the path adds if nothing blocks the ray. With media: β·f·L_e,
-    /// to be multiplied by the transmittance and divided by the MIS sum.
-    pub contribution: Vec4,
-    /// In scenes with media: the ray's state from segment to segment (index-matched
-    /// boundaries are crossed, see [`MediaShadow::segment`]).
-    pub media: Option<MediaShadow>,
-}
 
 /// The lane layout of a path's result: all four camera wavelengths, or, for a path split
 /// off at a dispersive refraction, the one camera lane its lane 0 continues.
 pub const ALL_LANES: u8 = 4;
 
-/// The state of one camera path between two ray queries.
-#[derive(Clone)]
-pub struct Path {
-    /// The ray to trace next.
-    pub ray: Ray,
-    /// The radiance gathered so far (lanes as given by `out_lane`).
-    pub l: Vec4,
-    /// [`ALL_LANES`], or the camera lane this split-off path's lane 0 stands for.
-    pub out_lane: u8,
-    /// The driver's index of the pixel sample this path belongs to.
-    pub slot: u32,
-    /// Whether the next query is the camera ray (coherent within a pixel quad).
-    pub at_camera: bool,
-    lambda: Vec4,
-    beta: Vec4,
-    ratio: Vec4,
-    prev: Option<PrevVertex>,
-    depth: i32,
-    medium: Option<u32>,
-    crossings: u32,
-    le_cache: EmissionCache,
-    rng: Pcg32,
-    shift_rng: LazyStream,
-    lanes: Shifting,
+/// "No emitter" in the emission cache.
+const NO_EMITTER: u32 = u32::MAX;
+
+/// The vertices that BSDF or phase sampling left, remembered for MIS when the
+/// continuation lands on a light.
+#[derive(Clone, Copy, Debug)]
+struct Prev<F: Float> {
+    /// The paths that have such a vertex (not after a specular event or at the camera).
+    has: F::Mask,
+    /// Per-lane pdf (solid angle) of the sampled direction.
+    pdf_dir: Spec<F>,
+    /// The prefix ratios before that sample.
+    ratio: Spec<F>,
+    /// The vertex.
+    p: V3<F>,
+    /// Per-lane probability that tracking passed every medium segment since.
+    pass: Spec<F>,
 }
 
-impl Path {
-    /// A path about to trace `camera_ray` at the wavelengths `lambda`, drawing its
+/// The state of W camera paths between two ray queries. A lane whose path is not
+/// `alive` is free for the next pixel sample.
+#[derive(Clone, Copy, Debug)]
+pub struct Paths<F: Float> {
+    /// The lanes whose path goes on (its next ray in `org`, `dir`).
+    pub alive: F::Mask,
+    /// The lanes whose next query is their camera ray.
+    pub at_camera: F::Mask,
+    /// Origins of the rays to trace next.
+    pub org: V3<F>,
+    /// Directions of the rays to trace next (over `[0, ∞)`).
+    pub dir: V3<F>,
+    /// The radiance gathered so far (lanes as given by `out_lane`).
+    pub l: Spec<F>,
+    /// The wavelengths.
+    lambda: Spec<F>,
+    /// f_k / p_0 over the prefix.
+    beta: Spec<F>,
+    /// p_j / p_0 over the prefix.
+    ratio: Spec<F>,
+    prev: Prev<F>,
+    /// The paths that shift their lanes by the hero's shift (else independently).
+    constant: F::Mask,
+    /// Path segments so far.
+    depth: F::Arr<i32>,
+    /// The medium each path is in ([`NO_MEDIUM`] for none).
+    medium: F::Arr<u32>,
+    /// Index-matched boundaries crossed.
+    crossings: F::Arr<u32>,
+    /// The last emitter evaluated and its radiance at the path's wavelengths: a path meets
+    /// the same light again and again, and its wavelengths change only at fluorescent
+    /// events.
+    le_emitter: F::Arr<u32>,
+    le_value: Spec<F>,
+    rng: F::Arr<Pcg32>,
+    shift_rng: F::Arr<LazyStream>,
+    /// [`ALL_LANES`], or the camera lane a split-off path's lane 0 stands for.
+    pub out_lane: F::Arr<u8>,
+    /// The driver's index of the pixel sample each path belongs to.
+    pub slot: F::Arr<u32>,
+}
+
+/// Uniforms for the paths in `m`, drawn path by path (0 elsewhere).
+#[inline(always)]
+fn draw<F: Float>(rng: &mut F::Arr<Pcg32>, m: F::Mask) -> F {
+    let mut v = F::splat(0.0);
+    for i in m.iter() {
+        v.set(i, rng[i].next_f32());
+    }
+    v
+}
+
+/// The paths in `m`'s count of set lanes.
+#[inline(always)]
+fn count<M: Mask>(m: M) -> u64 {
+    m.bits().count_ones() as u64
+}
+
+impl<F: Float> Paths<F> {
+    /// W free lanes.
+    pub fn empty() -> Paths<F> {
+        let zero = Spec::zero();
+        Paths {
+            alive: F::Mask::splat(false),
+            at_camera: F::Mask::splat(false),
+            org: V3::splat(Vec3::ZERO),
+            dir: V3::splat(Vec3::Z),
+            l: zero,
+            lambda: Spec::splat(500.0),
+            beta: zero,
+            ratio: zero,
+            prev: Prev {
+                has: F::Mask::splat(false),
+                pdf_dir: zero,
+                ratio: zero,
+                p: V3::splat(Vec3::ZERO),
+                pass: zero,
+            },
+            constant: F::Mask::splat(false),
+            depth: Lanes::splat(0),
+            medium: Lanes::splat(NO_MEDIUM),
+            crossings: Lanes::splat(0),
+            le_emitter: Lanes::splat(NO_EMITTER),
+            le_value: zero,
+            rng: Lanes::splat(Pcg32::new(0, 0)),
+            shift_rng: Lanes::splat(LazyStream::new(0, 0, 0)),
+            out_lane: Lanes::splat(ALL_LANES),
+            slot: Lanes::splat(0),
+        }
+    }
+
+    /// The wavelengths of every path.
+    pub fn lambda(&self) -> &Spec<F> {
+        &self.lambda
+    }
+
+    /// Starts camera paths in the lanes of `m`: path i traces the ray `org`, `dirs[i]` at
+    /// wavelengths `lambda[i]`, drawing its decisions from `rng[i]` and its wavelength
+    /// shifts from `shift_rng[i]`, for pixel sample `slot[i]`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn start(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        m: F::Mask,
+        org: V3<F>,
+        dirs: V3<F>,
+        lambda: Spec<F>,
+        rng: &F::Arr<Pcg32>,
+        shift_rng: &F::Arr<LazyStream>,
+        slot: &F::Arr<u32>,
+    ) {
+        let beta = match opts.method.spectral {
+            Spectral::Hwss => Vec4::ONE,
+            Spectral::Mono => Vec4::X,
+        };
+        let constant =
+            opts.method.spectral == Spectral::Hwss && opts.method.shifting == Shifting::Constant;
+        self.org.set_where(m, org);
+        self.dir.set_where(m, dirs);
+        self.lambda.set_where(m, lambda);
+        self.l.set_where(m, Spec::zero());
+        self.beta.set_where(m, Spec::splat4(beta));
+        self.ratio.set_where(m, Spec::splat4(beta));
+        self.prev.has &= !m;
+        self.alive |= m;
+        self.at_camera |= m;
+        self.constant = (self.constant & !m) | (m & F::Mask::splat(constant));
+        let medium = scene.camera_medium.unwrap_or(NO_MEDIUM);
+        for i in m.iter() {
+            self.depth[i] = 0;
+            self.medium[i] = medium;
+            self.crossings[i] = 0;
+            self.le_emitter[i] = NO_EMITTER;
+            self.rng[i] = rng[i];
+            self.shift_rng[i] = shift_rng[i];
+            self.out_lane[i] = ALL_LANES;
+            self.slot[i] = slot[i];
+        }
+    }
+
+    /// Adds path `i`'s radiance to `acc`, the pixel sample's value at the camera
+    /// wavelengths.
+    #[inline]
+    pub fn add_to(&self, i: usize, acc: &mut Vec4) {
+        let l = self.l.path(i);
+        match self.out_lane[i] {
+            ALL_LANES => *acc += l,
+            k => acc[k as usize] += l.x,
+        }
+    }
+
+    /// Path `i` alone.
+    pub fn path(&self, i: usize) -> Paths<f32> {
+        Paths {
+            alive: self.alive.get(i),
+            at_camera: self.at_camera.get(i),
+            org: self.org.path(i).into(),
+            dir: self.dir.path(i).into(),
+            l: self.l.path(i).into(),
+            lambda: self.lambda.path(i).into(),
+            beta: self.beta.path(i).into(),
+            ratio: self.ratio.path(i).into(),
+            prev: Prev {
+                has: self.prev.has.get(i),
+                pdf_dir: self.prev.pdf_dir.path(i).into(),
+                ratio: self.prev.ratio.path(i).into(),
+                p: self.prev.p.path(i).into(),
+                pass: self.prev.pass.path(i).into(),
+            },
+            constant: self.constant.get(i),
+            depth: [self.depth[i]],
+            medium: [self.medium[i]],
+            crossings: [self.crossings[i]],
+            le_emitter: [self.le_emitter[i]],
+            le_value: self.le_value.path(i).into(),
+            rng: [self.rng[i]],
+            shift_rng: [self.shift_rng[i]],
+            out_lane: [self.out_lane[i]],
+            slot: [self.slot[i]],
+        }
+    }
+
+    /// Puts the path `p` into lane `i`.
+    pub fn set_path(&mut self, i: usize, p: &Paths<f32>) {
+        self.alive = self.alive.with(i, p.alive);
+        self.at_camera = self.at_camera.with(i, p.at_camera);
+        self.org.set_path(i, p.org.into());
+        self.dir.set_path(i, p.dir.into());
+        self.l.set_path(i, p.l.into());
+        self.lambda.set_path(i, p.lambda.into());
+        self.beta.set_path(i, p.beta.into());
+        self.ratio.set_path(i, p.ratio.into());
+        self.prev.has = self.prev.has.with(i, p.prev.has);
+        self.prev.pdf_dir.set_path(i, p.prev.pdf_dir.into());
+        self.prev.ratio.set_path(i, p.prev.ratio.into());
+        self.prev.p.set_path(i, p.prev.p.into());
+        self.prev.pass.set_path(i, p.prev.pass.into());
+        self.constant = self.constant.with(i, p.constant);
+        self.depth[i] = p.depth[0];
+        self.medium[i] = p.medium[0];
+        self.crossings[i] = p.crossings[0];
+        self.le_emitter[i] = p.le_emitter[0];
+        self.le_value.set_path(i, p.le_value.into());
+        self.rng[i] = p.rng[0];
+        self.shift_rng[i] = p.shift_rng[0];
+        self.out_lane[i] = p.out_lane[0];
+        self.slot[i] = p.slot[0];
+    }
+
+    /// Ends the paths in `m`.
+    #[inline(always)]
+    fn kill(&mut self, m: F::Mask) {
+        self.alive &= !m;
+    }
+
+    /// The radiance of emitter `e[i]` at path i's wavelengths, for the paths in `m`
+    /// (cached per path; other lanes hold whatever they held).
+    #[inline(always)]
+    fn emission(&mut self, m: F::Mask, e: &F::Arr<u32>, lights: &Lights) -> Spec<F> {
+        for i in m.iter() {
+            if self.le_emitter[i] != e[i] {
+                self.le_emitter[i] = e[i];
+                let le = lights.emitters[e[i] as usize].spectral_radiance(self.lambda.path(i));
+                self.le_value.set_path(i, le);
+            }
+        }
+        self.le_value
+    }
+
+    /// A wavelength-shifting event for path `i` (fluorescent surface or medium
+    /// scattering): samples its lanes' input wavelengths and forgets the cached emission,
+    /// whose wavelengths are gone. `false` ends the path.
+    #[inline]
+    fn shift(&mut self, i: usize, model: &(impl super::ShiftModel + ?Sized)) -> bool {
+        let mode = if self.constant.get(i) {
+            Shifting::Constant
+        } else {
+            Shifting::Independent
+        };
+        self.le_emitter[i] = NO_EMITTER;
+        let rng = self.shift_rng[i].get();
+        shift_path(
+            model,
+            mode,
+            i,
+            &mut self.lambda,
+            &mut self.beta,
+            &mut self.ratio,
+            rng,
+        )
+    }
+
+    /// Russian roulette from the third bounce for the paths in `m`: a path survives with
+    /// probability min(max_k beta[k], 0.95) and is divided by it. Returns the survivors.
+    #[inline(always)]
+    fn roulette(&mut self, m: F::Mask) -> F::Mask {
+        let deep = m & F::Mask::from_fn(|i| self.depth[i] >= 3);
+        if deep.none() {
+            return m;
+        }
+        let q = self.beta.max_wavelength().min(F::splat(0.95));
+        let u = draw::<F>(&mut self.rng, deep);
+        let die = deep & u.ge(q);
+        self.kill(die);
+        let live = deep & !die;
+        self.beta.set_where(live, self.beta / q);
+        m & !die
+    }
+
+    /// Advances the live paths by the results `hit` of tracing their rays: gathers
+    /// emission and light, samples the next directions. Paths that go on keep their lane
+    /// (`alive`, next ray in `org`, `dir`); next-event shadow rays to trace are left in
+    /// `shadow`; a path split at a dispersive refraction ends, and its single-wavelength
+    /// continuations are pushed to `children`.
+    #[inline(always)]
+    pub fn step<const MEDIA: bool>(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        hit: &Hits<F>,
+        stats: &mut PathStats,
+        shadow: &mut Shadows<F>,
+        children: &mut Vec<Paths<f32>>,
+    ) {
+        let active = self.alive;
+        stats.rays += count(active);
+        self.at_camera = F::Mask::splat(false);
+        let mut s = active;
+        if MEDIA {
+            let inside = active & F::Mask::from_fn(|i| self.medium[i] != NO_MEDIUM);
+            if inside.any() {
+                s = (active & !inside) | self.track(scene, opts, hit, inside, stats, shadow);
+            }
+        }
+        self.kill(s & !hit.valid);
+        s &= hit.valid;
+        if s.none() {
+            return;
+        }
+        let p = self.org + self.dir * hit.t;
+        let ng = hit.ng.normalize();
+
+        // An index-matched medium boundary: cross it without scattering.
+        if MEDIA {
+            let null = s & F::Mask::from_fn(|i| {
+                s.get(i) && scene.geometries[hit.geom[i] as usize].is_null_interface()
+            });
+            if null.any() {
+                self.cross(scene, hit, null, p, ng);
+                s &= !null;
+                if s.none() {
+                    return;
+                }
+            }
+        }
+        for i in s.iter() {
+            self.depth[i] += 1;
+        }
+        let wo = -self.dir;
+        self.emitted(scene, hit, s, p, ng, wo);
+
+        // Paths at their last segment, or on a surface without a material, end here.
+        let mut mat = <F::Arr<u32> as Lanes<u32>>::splat(0);
+        let ends = F::Mask::from_fn(|i| {
+            s.get(i) && {
+                let last = opts.max_depth >= 0 && self.depth[i] >= opts.max_depth;
+                match scene.geometries[hit.geom[i] as usize].material {
+                    Some(m) if !last => {
+                        mat[i] = m;
+                        false
+                    }
+                    _ => true,
+                }
+            }
+        });
+        self.kill(ends);
+        s &= !ends;
+        for i in s.iter() {
+            if let Material::FluorescentDiffuse { reradiation } = &scene.materials[mat[i] as usize]
+            {
+                if !self.shift(i, reradiation.as_ref()) {
+                    s = s.with(i, false);
+                    self.alive = self.alive.with(i, false);
+                }
+            }
+        }
+        if s.none() {
+            return;
+        }
+        let lobes = Lobes::from_fn(s, |i| {
+            scene.materials[mat[i] as usize].at(self.lambda.path(i))
+        });
+        self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, ng, wo, stats, shadow);
+        self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, ng, wo, children);
+    }
+
+    /// Crosses index-matched boundaries at `p` (normals `ng`) for the paths in `m`.
+    #[inline]
+    fn cross(&mut self, scene: &Scene, hit: &Hits<F>, m: F::Mask, p: V3<F>, ng: V3<F>) {
+        for i in m.iter() {
+            self.crossings[i] += 1;
+            if self.crossings[i] > 256 {
+                self.alive = self.alive.with(i, false);
+                continue;
+            }
+            self.medium[i] =
+                medium_after_crossing(scene, hit.geom[i], ng.path(i), self.dir.path(i));
+        }
+        self.org.set_where(m, offset(p, ng, self.dir));
+    }
+
+    /// Emission seen by the paths in `m`, which hit the surfaces at `p`: weighted against
+    /// light sampling at the previous vertex where there is one.
+    #[inline(always)]
+    fn emitted(
+        &mut self,
+        scene: &Scene,
+        hit: &Hits<F>,
+        m: F::Mask,
+        p: V3<F>,
+        ng: V3<F>,
+        wo: V3<F>,
+    ) {
+        let lights = &scene.lights;
+        let cos = ng.dot(wo);
+        let mut e = <F::Arr<u32> as Lanes<u32>>::splat(0);
+        let facing = F::Mask::from_fn(|i| {
+            m.get(i)
+                && match lights.emitter_index_of(hit.geom[i]) {
+                    Some(k) => {
+                        e[i] = k;
+                        lights.emitters[k as usize].emits_towards(cos.get(i))
+                    }
+                    None => false,
+                }
+        });
+        if facing.none() {
+            return;
+        }
+        let le = self.emission(facing, &e, lights);
+        let lit = facing & !le.is_zero();
+        let direct = lit & !self.prev.has;
+        if direct.any() {
+            self.l
+                .set_where(direct, self.l + self.beta * le / self.ratio.sum());
+        }
+        let after = lit & self.prev.has;
+        if after.any() {
+            let pv = &self.prev;
+            let d2 = (p - pv.p).length_squared();
+            let cos_l = cos.abs();
+            let area = F::from_fn(|i| {
+                if after.get(i) {
+                    lights.pdf_area(hit.geom[i], hit.prim[i])
+                } else {
+                    0.0
+                }
+            });
+            let p_light = area * d2 / cos_l.max(F::splat(1e-12));
+            let p_dir = pv.pdf_dir * pv.pass;
+            let denom = (pv.ratio * (p_dir + Spec::broadcast(p_light))).sum();
+            // beta already holds f/p_dir,0 (and the passes' T/P_0): put the hero's pdf back.
+            let add = self.beta * le * (p_dir.hero() / denom);
+            self.l.set_where(after, self.l + add);
+        }
+    }
+
+    /// Next-event estimation at the non-specular surface vertices of the paths in `m`: one
+    /// point on a light each, MIS against BSDF sampling; the shadow rays go to `shadow`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn light_sample<const MEDIA: bool>(
+        &mut self,
+        scene: &Scene,
+        hit: &Hits<F>,
+        m: F::Mask,
+        lobes: &Lobes<F>,
+        p: V3<F>,
+        ng: V3<F>,
+        wo: V3<F>,
+        stats: &mut PathStats,
+        shadow: &mut Shadows<F>,
+    ) {
+        let u = [
+            draw::<F>(&mut self.rng, m),
+            draw::<F>(&mut self.rng, m),
+            draw::<F>(&mut self.rng, m),
+        ];
+        let m = m & !lobes.is_specular();
+        if m.none() {
+            return;
+        }
+        let ls = scene.lights.sample_towards_w(m, p, u);
+        let q = m & ls.valid;
+        if q.none() {
+            return;
+        }
+        let (f_cos, pdf_bsdf) = lobes.eval(ng, wo, ls.wi);
+        let q = q & !f_cos.is_zero();
+        if q.none() {
+            return;
+        }
+        let le = self.emission(q, &ls.emitter, &scene.lights);
+        let (org, dir, tfar) = shadow_ray(p, ng, ls.p, ls.n, ls.wi);
+        stats.rays += count(q);
+        if MEDIA {
+            // Leaving the surface towards wi: which medium is the shadow ray in?
+            let same_side = (ng.dot(ls.wi) * ng.dot(wo)).gt(F::splat(0.0));
+            let mut medium = self.medium;
+            for i in (q & !same_side).iter() {
+                medium[i] = medium_after_crossing(scene, hit.geom[i], ng.path(i), ls.wi.path(i));
+            }
+            let base = self.beta * f_cos * le;
+            let (lambda, ratio) = (&self.lambda, &self.ratio);
+            shadow.push_media(
+                q,
+                (org, dir, tfar),
+                base,
+                &medium,
+                lambda,
+                ratio,
+                ls.pdf,
+                pdf_bsdf,
+            );
+        } else {
+            let denom = (self.ratio * (Spec::broadcast(ls.pdf) + pdf_bsdf)).sum();
+            shadow.push(q, (org, dir, tfar), self.beta * f_cos * le / denom);
+        }
+    }
+
+    /// Continues the paths in `m` with their hero's BSDF sample (splitting those whose
+    /// lanes refract apart at a dispersive interface).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn scatter_surface<const MEDIA: bool>(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        hit: &Hits<F>,
+        m: F::Mask,
+        lobes: &Lobes<F>,
+        mat: &F::Arr<u32>,
+        p: V3<F>,
+        ng: V3<F>,
+        wo: V3<F>,
+        children: &mut Vec<Paths<f32>>,
+    ) {
+        let zero = F::splat(0.0);
+        let uc = draw::<F>(&mut self.rng, m);
+        let u = [draw::<F>(&mut self.rng, m), draw::<F>(&mut self.rng, m)];
+        let bs = lobes.sample(ng, wo, uc, u);
+        let p0 = bs.pdf.hero();
+        let mut s = m & bs.valid & p0.gt(zero);
+        self.kill(m & !s);
+        if s.none() {
+            return;
+        }
+        let refracts = (ng.dot(bs.wi) * ng.dot(wo)).lt(zero);
+        if opts.method.dispersion == Dispersion::Split {
+            let apart = s
+                & bs.specular
+                & refracts
+                & F::Mask::from_fn(|i| {
+                    (1..4).any(|k| self.ratio[k].get(i) != 0.0 && bs.pdf[k].get(i) == 0.0)
+                });
+            for i in apart.iter() {
+                let lobe = scene.materials[mat[i] as usize].at(self.lambda.path(i));
+                let geom = hit.geom[i];
+                let mut one = self.path(i);
+                one.split::<MEDIA>(
+                    scene,
+                    &lobe,
+                    p.path(i),
+                    ng.path(i),
+                    wo.path(i),
+                    geom,
+                    children,
+                );
+            }
+            self.kill(apart);
+            s &= !apart;
+        }
+        let ratio_prev = self.ratio;
+        self.beta.set_where(s, self.beta * (bs.f_cos / p0));
+        self.ratio.set_where(s, self.ratio * (bs.pdf / p0));
+        let pv = &mut self.prev;
+        pv.has = (pv.has & !s) | (s & !bs.specular);
+        pv.pdf_dir.set_where(s, bs.pdf);
+        pv.ratio.set_where(s, ratio_prev);
+        pv.p.set_where(s, p);
+        pv.pass.set_where(s, Spec::splat(1.0));
+        let black = s & self.beta.is_zero();
+        self.kill(black);
+        s &= !black;
+        // Crossing the surface (refraction) changes the medium.
+        if MEDIA {
+            for i in (s & refracts).iter() {
+                self.medium[i] =
+                    medium_after_crossing(scene, hit.geom[i], ng.path(i), bs.wi.path(i));
+            }
+        }
+        let s = self.roulette(s);
+        self.org.set_where(s, offset(p, ng, bs.wi));
+        self.dir.set_where(s, bs.wi);
+    }
+
+    /// Distance sampling for the paths in `m`, which are inside a medium: hero-driven with
+    /// per-lane pdfs. Paths that collide scatter there (or end); returns those that reach
+    /// the surface `hit`.
+    #[inline(always)]
+    fn track(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        hit: &Hits<F>,
+        m: F::Mask,
+        stats: &mut PathStats,
+        shadow: &mut Shadows<F>,
+    ) -> F::Mask {
+        // Left a medium that is not closed.
+        self.kill(m & !hit.valid);
+        let m = m & hit.valid;
+        if m.none() {
+            return m;
+        }
+        let tracking = opts.method.tracking;
+        let (mut st, mut ss) = (Spec::zero(), Spec::zero());
+        let mut g = F::splat(0.0);
+        for i in m.iter() {
+            let med = &scene.media[self.medium[i] as usize];
+            let lambda = self.lambda.path(i);
+            st.set_path(i, med.sigma_t_hat(lambda));
+            ss.set_path(i, med.sigma_s_hat(lambda));
+            g.set(i, med.phase().g);
+        }
+        let d = hit.t * self.dir.length();
+        let u = draw::<F>(&mut self.rng, m);
+        let (collide, t) = tracking::sample_distance(tracking, st.hero(), ss.hero(), d, u);
+        let c = m & collide;
+        let reach = m & !collide;
+        let mut surface = reach;
+        if reach.any() {
+            let ps = tracking::prob_surface(tracking, st, ss, d);
+            let ok = reach & ps.hero().gt(F::splat(0.0));
+            self.kill(reach & !ok);
+            self.beta
+                .set_where(ok, self.beta * (tracking::transmittance(st, d) / ps.hero()));
+            self.ratio.set_where(ok, self.ratio * (ps / ps.hero()));
+            let pass = ok & self.prev.has;
+            self.prev.pass.set_where(pass, self.prev.pass * ps);
+            surface = ok;
+        }
+        if c.any() {
+            self.scatter_medium(scene, opts, c, st, ss, Hg::new(g), d, t, stats, shadow);
+        }
+        surface
+    }
+
+    /// A real collision at distance `t` for the paths in `m`: the tracking weights, the
+    /// wavelength shift of the medium's scattering (its value over pdf supplies σ̂_s),
+    /// next-event estimation MIS against phase sampling, and the phase sample.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn scatter_medium(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        m: F::Mask,
+        st: Spec<F>,
+        ss: Spec<F>,
+        phase: Hg<F>,
+        d: F,
+        t: F,
+        stats: &mut PathStats,
+        shadow: &mut Shadows<F>,
+    ) {
+        let zero = F::splat(0.0);
+        let pdf = tracking::pdf_collision(opts.method.tracking, st, ss, d, t);
+        let ok = m & pdf.hero().gt(zero);
+        self.kill(m & !ok);
+        let mut m = ok;
+        self.beta
+            .set_where(m, self.beta * (tracking::transmittance(st, t) / pdf.hero()));
+        self.ratio.set_where(m, self.ratio * (pdf / pdf.hero()));
+        for i in m.iter() {
+            self.depth[i] += 1;
+            let last = opts.max_depth >= 0 && self.depth[i] >= opts.max_depth;
+            let alive = !last && {
+                let med = &scene.media[self.medium[i] as usize];
+                self.shift(i, med)
+            };
+            if !alive {
+                m = m.with(i, false);
+                self.alive = self.alive.with(i, false);
+            }
+        }
+        let dir = self.dir.normalize();
+        let p = self.org + dir * t;
+        let wo = -dir;
+        let u = [
+            draw::<F>(&mut self.rng, m),
+            draw::<F>(&mut self.rng, m),
+            draw::<F>(&mut self.rng, m),
+        ];
+        let ls = scene.lights.sample_towards_w(m, p, u);
+        let q = m & ls.valid;
+        if q.any() {
+            let le = self.emission(q, &ls.emitter, &scene.lights);
+            let f = phase.eval_dirs(wo, ls.wi);
+            let nowhere = V3::splat(Vec3::ZERO);
+            let (org, dir, tfar) = shadow_ray(p, nowhere, ls.p, ls.n, ls.wi);
+            stats.rays += count(q);
+            let base = self.beta * le * f;
+            let (lambda, ratio) = (&self.lambda, &self.ratio);
+            let pdf_dir = Spec::broadcast(f);
+            shadow.push_media(
+                q,
+                (org, dir, tfar),
+                base,
+                &self.medium,
+                lambda,
+                ratio,
+                ls.pdf,
+                pdf_dir,
+            );
+        }
+        let u = [draw::<F>(&mut self.rng, m), draw::<F>(&mut self.rng, m)];
+        let (wi, pdf_dir) = phase.sample(wo, u);
+        let ok = m & pdf_dir.gt(zero);
+        self.kill(m & !ok);
+        let m = ok;
+        // Phase sampling is exact (f = pdf) and the same for every lane.
+        let pv = &mut self.prev;
+        pv.has |= m;
+        pv.pdf_dir.set_where(m, Spec::broadcast(pdf_dir));
+        pv.ratio.set_where(m, self.ratio);
+        pv.p.set_where(m, p);
+        pv.pass.set_where(m, Spec::splat(1.0));
+        let m = self.roulette(m);
+        self.org.set_where(m, p);
+        self.dir.set_where(m, wi);
+    }
+}
+
+impl Paths<f32> {
+    /// A camera path about to trace `camera_ray` at the wavelengths `lambda`, drawing its
     /// decisions from `rng` and its wavelength shifts from `shift_rng`.
-    pub fn new(
+    pub fn camera(
         scene: &Scene,
         camera_ray: Ray,
         lambda: Vec4,
         opts: &PathOptions,
         rng: Pcg32,
         shift_rng: LazyStream,
-        slot: u32,
-    ) -> Path {
-        let beta = match opts.method.spectral {
-            Spectral::Hwss => Vec4::ONE,
-            Spectral::Mono => Vec4::X,
-        };
-        Path {
-            ray: camera_ray,
-            l: Vec4::ZERO,
-            out_lane: ALL_LANES,
-            slot,
-            at_camera: true,
-            lambda,
-            beta,
-            ratio: beta,
-            prev: None,
-            depth: 0,
-            medium: scene.camera_medium,
-            crossings: 0,
-            le_cache: EmissionCache::default(),
-            rng,
-            shift_rng,
-            lanes: match opts.method.spectral {
-                Spectral::Hwss => opts.method.shifting,
-                Spectral::Mono => Shifting::Independent,
-            },
-        }
-    }
-
-    /// Adds this path's radiance to `acc`, the pixel sample's value at the camera
-    /// wavelengths.
-    #[inline]
-    pub fn add_to(&self, acc: &mut Vec4) {
-        if self.out_lane == ALL_LANES {
-            *acc += self.l;
-        } else {
-            acc[self.out_lane as usize] += self.l.x;
-        }
-    }
-
-    /// Advances the path by the result `hit` of tracing [`Path::ray`]: gathers emission
-    /// and light, samples the next direction. Returns whether the path goes on (its next
-    /// ray in [`Path::ray`]). A next-event shadow ray to trace is left in `shadow`; a
-    /// split at a dispersive refraction ends this path and leaves its single-wavelength
-    /// continuations in `children`.
-    #[inline(always)]
-    pub fn step<const MEDIA: bool>(
-        &mut self,
-        scene: &Scene,
-        opts: &PathOptions,
-        hit: Option<Hit>,
-        stats: &mut PathStats,
-        shadow: &mut Option<ShadowQuery>,
-        children: &mut Vec<Path>,
-    ) -> bool {
-        stats.rays += 1;
-        self.at_camera = false;
-        let lights = &scene.lights;
-        let max_depth = opts.max_depth;
-        let ray = self.ray;
-
-        // Distance sampling in the current medium, hero-driven with per-lane pdfs.
-        if let (true, Some(m)) = (MEDIA, self.medium) {
-            let Some(h) = hit else { return false }; // left a medium that is not closed
-            let med = &scene.media[m as usize];
-            let (st, ss) = (med.sigma_t_hat(self.lambda), med.sigma_s_hat(self.lambda));
-            let d = h.t * ray.dir.length();
-            match tracking::sample_distance(opts.method.tracking, st, ss, d, self.rng.next_f32()) {
-                DistanceSample::Collision { t } => {
-                    let pdf = tracking::pdf_collision(opts.method.tracking, st, ss, d, t);
-                    if pdf.x <= 0.0 {
-                        return false;
-                    }
-                    self.beta *= tracking::transmittance(st, t) / pdf.x;
-                    self.ratio *= pdf / pdf.x;
-                    self.depth += 1;
-                    if max_depth >= 0 && self.depth >= max_depth {
-                        return false;
-                    }
-                    let p = ray.org + ray.dir.normalize() * t;
-                    let wo = -ray.dir.normalize();
-                    // The scattering coefficient σ̂_s enters through the shift sample
-                    // (its value over its pdf is σ̂_s: elastic or fluorescent).
-                    if !self.shift(med) {
-                        return false;
-                    }
-                    let phase = med.phase();
-                    // Next-event estimation through the medium, MIS against phase sampling.
-                    let u_light = [
-                        self.rng.next_f32(),
-                        self.rng.next_f32(),
-                        self.rng.next_f32(),
-                    ];
-                    if let Some((ls, wi, p_light)) = lights.sample_towards(p, u_light) {
-                        let le = self.le_cache.get(ls.emitter, self.lambda, lights);
-                        let f = phase.eval_dirs(wo, wi);
-                        let pdf_dir = phase.pdf(wo, wi);
-                        let sray = shadow_ray(p, Vec3::ZERO, ls.p, ls.n, wi);
-                        stats.rays += 1;
-                        *shadow = Some(ShadowQuery {
-                            ray: sray,
-                            contribution: self.beta * le * f,
-                            media: Some(MediaShadow::new(
-                                Some(m),
-                                self.lambda,
-                                self.ratio,
-                                p_light,
-                                Vec4::splat(pdf_dir),
-                            )),
-                        });
-                    }
-                    let (wi, pdf_dir) = phase.sample(wo, self.rng.next_2d());
-                    if pdf_dir <= 0.0 {
-                        return false;
-                    }
-                    // Phase sampling is exact (f = pdf) and the same for every lane.
-                    self.prev = Some(PrevVertex {
-                        pdf_dir: Vec4::splat(pdf_dir),
-                        ratio: self.ratio,
-                        p,
-                        pass: Vec4::ONE,
-                    });
-                    if !russian_roulette(&mut self.beta, self.depth, &mut self.rng) {
-                        return false;
-                    }
-                    self.ray = Ray::new(p, wi);
-                    return true;
-                }
-                DistanceSample::Surface => {
-                    let ps = tracking::prob_surface(opts.method.tracking, st, ss, d);
-                    if ps.x <= 0.0 {
-                        return false;
-                    }
-                    self.beta *= tracking::transmittance(st, d) / ps.x;
-                    self.ratio *= ps / ps.x;
-                    if let Some(pv) = self.prev.as_mut() {
-                        pv.pass *= ps;
-                    }
-                }
-            }
-        }
-
-        let Some(hit) = hit else { return false };
-        let p = ray.org + ray.dir * hit.t;
-        let ng = hit.ng.normalize();
-        let geom = &scene.geometries[hit.geom_id as usize];
-
-        // An index-matched medium boundary: cross it without scattering.
-        if MEDIA && geom.is_null_interface() {
-            self.crossings += 1;
-            if self.crossings > 256 {
-                return false;
-            }
-            self.medium = medium_after_crossing(scene, hit.geom_id, ng, ray.dir);
-            let eps = spawn_eps(p);
-            self.ray = Ray::new(p + ng * (eps * ng.dot(ray.dir).signum()), ray.dir);
-            return true;
-        }
-        self.depth += 1;
-        let wo = -ray.dir;
-
-        if let Some(e) = lights.emitter_index_of(hit.geom_id) {
-            let le = if lights.emitters[e as usize].emits_towards(ng.dot(wo)) {
-                self.le_cache.get(e, self.lambda, lights)
-            } else {
-                Vec4::ZERO
-            };
-            if le != Vec4::ZERO {
-                match self.prev {
-                    None => self.l += self.beta * le / self.ratio.element_sum(),
-                    Some(pv) => {
-                        let d2 = (p - pv.p).length_squared();
-                        let cos_l = ng.dot(wo).abs();
-                        let p_light =
-                            lights.pdf_area(hit.geom_id, hit.prim_id) * d2 / cos_l.max(1e-12);
-                        let p_dir = pv.pdf_dir * pv.pass;
-                        let denom = (pv.ratio * (p_dir + Vec4::splat(p_light))).element_sum();
-                        // beta already holds f/p_dir,0 (and the passes' T/P_0): put the
-                        // hero's pdf back.
-                        self.l += self.beta * le * (p_dir.x / denom);
-                    }
-                }
-            }
-        }
-        if max_depth >= 0 && self.depth >= max_depth {
-            return false;
-        }
-        let Some(mat_id) = geom.material else {
-            return false;
-        };
-        let mat = &scene.materials[mat_id as usize];
-        if let Material::FluorescentDiffuse { reradiation } = mat {
-            if !self.shift(reradiation.as_ref()) {
-                return false;
-            }
-        }
-        let material = mat.at(self.lambda);
-
-        // Next-event estimation: one point on a light, MIS against BSDF sampling.
-        let u_light = [
-            self.rng.next_f32(),
-            self.rng.next_f32(),
-            self.rng.next_f32(),
-        ];
-        if !material.is_specular() {
-            if let Some((ls, wi, p_light)) = lights.sample_towards(p, u_light) {
-                let (f_cos, pdf_bsdf) = material.eval(ng, wo, wi);
-                if f_cos != Vec4::ZERO {
-                    let le = self.le_cache.get(ls.emitter, self.lambda, lights);
-                    let sray = shadow_ray(p, ng, ls.p, ls.n, wi);
-                    stats.rays += 1;
-                    *shadow = Some(if MEDIA {
-                        // Leaving the surface towards wi: which medium is the shadow ray in?
-                        let m_out = if ng.dot(wi) * ng.dot(wo) > 0.0 {
-                            self.medium
-                        } else {
-                            medium_after_crossing(scene, hit.geom_id, ng, wi)
-                        };
-                        ShadowQuery {
-                            ray: sray,
-                            contribution: self.beta * f_cos * le,
-                            media: Some(MediaShadow::new(
-                                m_out,
-                                self.lambda,
-                                self.ratio,
-                                p_light,
-                                pdf_bsdf,
-                            )),
-                        }
-                    } else {
-                        let denom = (self.ratio * (Vec4::splat(p_light) + pdf_bsdf)).element_sum();
-                        ShadowQuery {
-                            ray: sray,
-                            contribution: self.beta * f_cos * le / denom,
-                            media: None,
-                        }
-                    });
-                }
-            }
-        }
-
-        // Continue the path with the hero's BSDF sample.
-        let uc = self.rng.next_f32();
-        let u2 = self.rng.next_2d();
-        let Some(bs) = material.sample(ng, wo, uc, u2) else {
-            return false;
-        };
-        let p0 = bs.pdf.x;
-        if p0 <= 0.0 {
-            return false;
-        }
-        let refracts = ng.dot(bs.wi) * ng.dot(wo) < 0.0;
-        if opts.method.dispersion == Dispersion::Split
-            && bs.specular
-            && refracts
-            && (1..4).any(|k| self.ratio[k] != 0.0 && bs.pdf[k] == 0.0)
-        {
-            self.split::<MEDIA>(scene, &material, p, ng, wo, hit.geom_id, children);
-            return false;
-        }
-        let ratio_prev = self.ratio;
-        self.beta *= bs.f_cos / p0;
-        self.ratio *= bs.pdf / p0;
-        self.prev = if bs.specular {
-            None
-        } else {
-            Some(PrevVertex {
-                pdf_dir: bs.pdf,
-                ratio: ratio_prev,
-                p,
-                pass: Vec4::ONE,
-            })
-        };
-        if self.beta == Vec4::ZERO {
-            return false;
-        }
-        // Crossing the surface (refraction) changes the medium.
-        if MEDIA && refracts {
-            self.medium = medium_after_crossing(scene, hit.geom_id, ng, bs.wi);
-        }
-        if !russian_roulette(&mut self.beta, self.depth, &mut self.rng) {
-            return false;
-        }
-        let eps = spawn_eps(p);
-        self.ray = Ray::new(p + ng * eps * ng.dot(bs.wi).signum(), bs.wi);
-        true
-    }
-
-    /// A wavelength-shifting event (fluorescent surface or medium scattering): samples
-    /// the lanes' input wavelengths ([`shift_wavelengths`]) and forgets the cached
-    /// emission, whose wavelengths are gone. `false` ends the path.
-    #[inline]
-    fn shift(&mut self, model: &(impl ShiftModel + ?Sized)) -> bool {
-        let alive = shift_wavelengths(
-            model,
-            self.lanes,
-            &mut self.lambda,
-            &mut self.beta,
-            &mut self.ratio,
-            self.shift_rng.get(),
+    ) -> Paths<f32> {
+        let mut p = Paths::empty();
+        p.start(
+            scene,
+            opts,
+            true,
+            camera_ray.org.into(),
+            camera_ray.dir.into(),
+            lambda.into(),
+            &[rng],
+            &[shift_rng],
+            &[0],
         );
-        self.le_cache = EmissionCache::default();
-        alive
+        p
     }
 
     /// Splits the path at a dispersive refraction (the hero refracted and some live lane
@@ -400,7 +803,7 @@ impl Path {
         ng: Vec3,
         wo: Vec3,
         geom: u32,
-        children: &mut Vec<Path>,
+        children: &mut Vec<Paths<f32>>,
     ) {
         let Some((dirs, f_cos, pdf)) = material.refract_lanes(ng, wo) else {
             return;
@@ -409,40 +812,37 @@ impl Path {
         if p0 <= 0.0 {
             return;
         }
-        let denom = (self.ratio * pdf / p0).element_sum();
+        let denom = (self.ratio * (Spec::from(pdf) / p0)).sum();
         // The children's random streams: keyed by two draws of this path's stream, so
-        // they are the same under every driver.
-        let key = ((self.rng.next_u32() as u64) << 32) | self.rng.next_u32() as u64;
-        let eps = spawn_eps(p);
+        // they are the same at every width.
+        let rng = &mut self.rng[0];
+        let key = ((rng.next_u32() as u64) << 32) | rng.next_u32() as u64;
+        let (pv, nv) = (V3::<f32>::from(p), V3::<f32>::from(ng));
         for (k, wi) in dirs.into_iter().enumerate() {
             let Some(wi) = wi else { continue };
             let b = self.beta[k] * f_cos[k] / p0;
             if b == 0.0 || !b.is_finite() {
                 continue;
             }
-            let mut child = Path {
-                ray: Ray::new(p + ng * eps * ng.dot(wi).signum(), wi),
-                l: Vec4::ZERO,
-                out_lane: k as u8,
-                slot: self.slot,
-                at_camera: false,
-                lambda: Vec4::splat(self.lambda[k]),
-                beta: Vec4::new(b, 0.0, 0.0, 0.0),
-                ratio: Vec4::new(denom, 0.0, 0.0, 0.0),
-                prev: None,
-                depth: self.depth,
-                medium: if MEDIA {
-                    medium_after_crossing(scene, geom, ng, wi)
-                } else {
-                    self.medium
-                },
-                crossings: self.crossings,
-                le_cache: EmissionCache::default(),
-                rng: Pcg32::new(mix64(key), k as u64),
-                shift_rng: LazyStream::new(key, k as u64, u64::MAX),
-                lanes: Shifting::Independent,
-            };
-            if russian_roulette(&mut child.beta, child.depth, &mut child.rng) {
+            let mut child = *self;
+            child.alive = true;
+            child.at_camera = false;
+            child.org = offset(pv, nv, V3::from(wi));
+            child.dir = wi.into();
+            child.l = Spec::zero();
+            child.out_lane = [k as u8];
+            child.lambda = Spec::splat(self.lambda[k]);
+            child.beta = Spec::from(Vec4::new(b, 0.0, 0.0, 0.0));
+            child.ratio = Spec::from(Vec4::new(denom, 0.0, 0.0, 0.0));
+            child.prev.has = false;
+            if MEDIA {
+                child.medium = [medium_after_crossing(scene, geom, ng, wi)];
+            }
+            child.le_emitter = [NO_EMITTER];
+            child.rng = [Pcg32::new(mix64(key), k as u64)];
+            child.shift_rng = [LazyStream::new(key, k as u64, u64::MAX)];
+            child.constant = false;
+            if child.roulette(true) {
                 children.push(child);
             }
         }

@@ -4,16 +4,15 @@
 //! pixel's samples are accumulated in order by one thread, so the image is the same
 //! whatever the number of threads.
 
-use super::packet::{Grouping, Wavefront};
-use super::path::Path;
+use super::trace::{SampleId, Tracer, Width};
 use super::{PathOptions, PathStats};
 use crate::color;
 use crate::error::{Detail, Error};
-use crate::method::{Method, Rays, Spectral};
-use crate::sampler::{LazyStream, Pcg32};
+use crate::method::{Layout, Method, Rays};
 use crate::scene::RenderDesc;
 use crate::scene::Scene;
-use crate::spectrum::{self, SampledWavelengths};
+use crate::simd::F4;
+use crate::spectrum;
 use crate::Result;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -34,6 +33,8 @@ pub struct RenderOptions {
     pub threads: usize,
     /// The method; its tracking, if left open, is the scene's default.
     pub method: Method,
+    /// Which pixel samples share a packet (packet modes; the image does not depend on it).
+    pub layout: Layout,
 }
 
 impl Default for RenderOptions {
@@ -47,6 +48,7 @@ impl Default for RenderOptions {
             max_depth: d.max_depth,
             threads: 0,
             method: Method::default(),
+            layout: Layout::default(),
         }
     }
 }
@@ -175,71 +177,6 @@ pub struct RenderResult {
     pub seconds: f64,
 }
 
-/// One pixel sample: linear sRGB, or `None` if the estimate is NaN or infinite.
-#[inline]
-pub fn pixel_sample(
-    scene: &Scene,
-    opts: &RenderOptions,
-    x: u32,
-    y: u32,
-    sample: u32,
-    stats: &mut PathStats,
-) -> Option<Vec3> {
-    let path = opts.path_options(scene);
-    pixel_sample_checked(scene, opts, &path, x, y, sample, false, stats)
-}
-
-/// [`pixel_sample`], with `poison` replacing the estimate by NaN before the finiteness
-/// check (the test hook [`Progressive::inject_nonfinite_every`]).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn pixel_sample_checked(
-    scene: &Scene,
-    opts: &RenderOptions,
-    path: &PathOptions,
-    x: u32,
-    y: u32,
-    sample: u32,
-    poison: bool,
-    stats: &mut PathStats,
-) -> Option<Vec3> {
-    let (mut p, lambda) = start_sample(scene, opts, path, x, y, sample, 0);
-    let l = if scene.has_media() {
-        super::trace_single::<true>(scene, path, &mut p, stats)
-    } else {
-        super::trace_single::<false>(scene, path, &mut p, stats)
-    };
-    finish_sample(lambda, l, poison, stats)
-}
-
-/// The camera path of one pixel sample and its wavelengths: a jittered ray through the
-/// pixel, the wavelengths, and the sample's two random streams.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn start_sample(
-    scene: &Scene,
-    opts: &RenderOptions,
-    path: &PathOptions,
-    x: u32,
-    y: u32,
-    sample: u32,
-    slot: u32,
-) -> (Path, Vec4) {
-    let pixel = (y as u64) * scene.camera.width as u64 + x as u64;
-    let mut rng = Pcg32::for_sample(opts.seed, pixel, sample as u64);
-    let [jx, jy] = rng.next_2d();
-    let ray = scene.camera.ray(x as f32 + jx, y as f32 + jy);
-    let u = rng.next_f32();
-    let wl = match path.method.spectral {
-        Spectral::Hwss => SampledWavelengths::sample_hwss(u),
-        Spectral::Mono => SampledWavelengths::sample_mono(u),
-    };
-    // The shift stream: a second, independent stream of the same pixel sample.
-    let shift_rng = LazyStream::new(opts.seed, pixel, sample as u64);
-    let p = Path::new(scene, ray, wl.lambda, path, rng, shift_rng, slot);
-    (p, wl.lambda)
-}
-
 /// A pixel sample's radiance `l` at the camera wavelengths `lambda` as linear sRGB, or
 /// `None` (counted) if it is NaN or infinite.
 #[inline]
@@ -299,42 +236,22 @@ fn render_pass_with(
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
     let path = opts.path_options(scene);
-    let stats = match opts.method.rays {
-        Rays::Single => pass_single(
-            scene,
-            opts,
-            &path,
-            film,
-            first,
-            count,
-            inject_nonfinite_every,
-            on_row,
-        ),
-        Rays::Packet | Rays::Lockstep => {
-            let grouping = if opts.method.rays == Rays::Packet {
-                Grouping::Regroup
-            } else {
-                Grouping::Lockstep
-            };
-            // Scenes without media get a path loop with the medium code compiled out.
-            let pass = if scene.has_media() {
-                pass_packet::<true>
-            } else {
-                pass_packet::<false>
-            };
-            pass(
-                scene,
-                opts,
-                &path,
-                grouping,
-                film,
-                first,
-                count,
-                inject_nonfinite_every,
-                on_row,
-            )
-        }
+    // Scenes without media get a path loop with the medium code compiled out.
+    let pass = match (opts.method.rays, scene.has_media()) {
+        (Rays::Single, false) => pass::<f32, false>,
+        (Rays::Single, true) => pass::<f32, true>,
+        (Rays::Packet | Rays::Lockstep, false) => pass::<F4, false>,
+        (Rays::Packet | Rays::Lockstep, true) => pass::<F4, true>,
     };
+    let job = Job {
+        scene,
+        opts,
+        path: &path,
+        first,
+        count,
+        inject_nonfinite_every,
+    };
+    let stats = pass(&job, film, on_row);
     film.spp += count;
     stats
 }
@@ -355,111 +272,111 @@ fn add_stats(mut a: PathStats, b: PathStats) -> PathStats {
     a
 }
 
-/// A pass with single rays: rows in parallel, each pixel's samples depth first.
-#[allow(clippy::too_many_arguments)]
-fn pass_single(
-    scene: &Scene,
-    opts: &RenderOptions,
-    path: &PathOptions,
-    film: &mut Film,
+/// What a pass renders: samples `[first, first + count)` of every pixel.
+struct Job<'a> {
+    scene: &'a Scene,
+    opts: &'a RenderOptions,
+    path: &'a PathOptions,
     first: u32,
     count: u32,
     inject_nonfinite_every: Option<u64>,
-    on_row: &(dyn Fn() + Sync),
-) -> PathStats {
-    let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
-    film.sum
-        .par_chunks_mut(w)
-        .zip(film.sum_sq.par_chunks_mut(w))
-        .enumerate()
-        .map(|(y, (sum, sq))| {
-            let mut st = PathStats::default();
-            for x in 0..w {
-                let pixel = (y * w + x) as u64;
-                for s in first..first + count {
-                    let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
-                    if let Some(c) = pixel_sample_checked(
-                        scene, opts, path, x as u32, y as u32, s, poison, &mut st,
-                    ) {
-                        accumulate(&mut sum[x], &mut sq[x], c);
+}
+
+/// Rows per rayon job.
+const ROWS: usize = 2;
+
+/// Samples per pixel a tracer runs at once (bounds the result buffers).
+const CHUNK: u32 = 16;
+
+/// The order in which the pixel samples of `rows` rows from `y0`, samples `[s0, s0 + n)`,
+/// meet the lanes; sample k of local pixel i goes to slot i·n + k.
+fn samples(layout: Layout, w: usize, rows: usize, y0: usize, s0: u32, n: u32) -> Vec<SampleId> {
+    let id = |x: usize, ly: usize, k: u32| SampleId {
+        x: x as u32,
+        y: (y0 + ly) as u32,
+        index: s0 + k,
+        slot: (ly * w + x) as u32 * n + k,
+    };
+    let mut out = Vec::with_capacity(w * rows * n as usize);
+    match layout {
+        Layout::Quad => {
+            for k in 0..n {
+                for qx in 0..w.div_ceil(2) {
+                    for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                        let x = 2 * qx + dx;
+                        if x < w && dy < rows {
+                            out.push(id(x, dy, k));
+                        }
                     }
                 }
             }
-            on_row();
-            st
-        })
-        .reduce(PathStats::default, add_stats)
+        }
+        Layout::Pixel => {
+            for ly in 0..rows {
+                for x in 0..w {
+                    out.extend((0..n).map(|k| id(x, ly, k)));
+                }
+            }
+        }
+    }
+    out
 }
 
-/// A pass with packets: pairs of rows in parallel; for each sample index, the pixels of
-/// a row pair start as 2×2 quads in one [`Wavefront`]. A pixel's samples are still added
-/// in sample order, so the film does not depend on the thread count.
-#[allow(clippy::too_many_arguments)]
-fn pass_packet<const MEDIA: bool>(
-    scene: &Scene,
-    opts: &RenderOptions,
-    path: &PathOptions,
-    grouping: Grouping,
+/// A pass at lane width `F`: pairs of rows in parallel; in each, the pixel samples go
+/// through one [`Tracer`] in the order of the layout, and each pixel's samples are added
+/// to the film in sample order afterwards, so the film depends neither on the thread
+/// count nor on the width.
+fn pass<F: Width, const MEDIA: bool>(
+    job: &Job,
     film: &mut Film,
-    first: u32,
-    count: u32,
-    inject_nonfinite_every: Option<u64>,
     on_row: &(dyn Fn() + Sync),
 ) -> PathStats {
+    let (scene, opts) = (job.scene, job.opts);
     let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
     film.sum
-        .par_chunks_mut(2 * w)
-        .zip(film.sum_sq.par_chunks_mut(2 * w))
+        .par_chunks_mut(ROWS * w)
+        .zip(film.sum_sq.par_chunks_mut(ROWS * w))
         .enumerate()
-        // One wavefront and its buffers per rayon job, reused over its row pairs: a pass
-        // is one sample per pixel, and allocating them per row pair showed in profiles.
+        // One tracer and its buffers per rayon job, reused over its rows.
         .map_init(
             || {
-                let mut wave = Wavefront::default();
-                wave.reserve(4 * w.div_ceil(2));
-                (wave, vec![Vec4::ZERO; 2 * w], vec![Vec4::ZERO; 2 * w])
+                let mut tracer = Tracer::<F>::default();
+                tracer.lockstep = opts.method.rays == Rays::Lockstep;
+                (tracer, Vec::new(), Vec::new())
             },
-            |(wave, results, lambdas), (pair, (sum, sq))| {
+            |(tracer, results, lambdas), (chunk, (sum, sq))| {
                 let mut st = PathStats::default();
                 let rows = sum.len() / w;
-                let y0 = 2 * pair;
-                for s in first..first + count {
-                    wave.clear();
-                    for qx in 0..w.div_ceil(2) {
-                        for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                            let (x, ly) = (2 * qx + dx, dy);
-                            if x >= w || ly >= rows {
-                                wave.push_empty();
-                                continue;
+                let y0 = chunk * ROWS;
+                let mut done = 0;
+                while done < job.count {
+                    let n = CHUNK.min(job.count - done);
+                    let s0 = job.first + done;
+                    results.clear();
+                    results.resize(rows * w * n as usize, Vec4::ZERO);
+                    lambdas.resize(results.len(), Vec4::ZERO);
+                    let work = samples(opts.layout, w, rows, y0, s0, n);
+                    let mut work = work.into_iter();
+                    tracer.run::<MEDIA>(
+                        scene, job.path, opts.seed, &mut work, results, lambdas, &mut st,
+                    );
+                    for i in 0..rows * w {
+                        let pixel = (y0 * w + i) as u64;
+                        for k in 0..n {
+                            let slot = i * n as usize + k as usize;
+                            let poison =
+                                poisoned(job.inject_nonfinite_every, pixels, pixel, s0 + k);
+                            if let Some(c) =
+                                finish_sample(lambdas[slot], results[slot], poison, &mut st)
+                            {
+                                accumulate(&mut sum[i], &mut sq[i], c);
                             }
-                            let slot = ly * w + x;
-                            let (p, lambda) = start_sample(
-                                scene,
-                                opts,
-                                path,
-                                x as u32,
-                                (y0 + ly) as u32,
-                                s,
-                                slot as u32,
-                            );
-                            lambdas[slot] = lambda;
-                            wave.push(p);
                         }
                     }
-                    results.fill(Vec4::ZERO);
-                    wave.run::<MEDIA>(scene, path, grouping, results, &mut st);
-                    st.lanes_used += std::mem::take(&mut wave.lanes_used);
-                    st.lanes_total += std::mem::take(&mut wave.lanes_total);
-                    for slot in 0..rows * w {
-                        let pixel = (y0 * w + slot) as u64;
-                        let poison = poisoned(inject_nonfinite_every, pixels, pixel, s);
-                        if let Some(c) =
-                            finish_sample(lambdas[slot], results[slot], poison, &mut st)
-                        {
-                            accumulate(&mut sum[slot], &mut sq[slot], c);
-                        }
-                    }
+                    done += n;
                 }
+                st.lanes_used += std::mem::take(&mut tracer.lanes_used);
+                st.lanes_total += std::mem::take(&mut tracer.lanes_total);
                 for _ in 0..rows {
                     on_row();
                 }

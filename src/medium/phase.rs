@@ -15,8 +15,9 @@
 //! The density is over solid angle (sr⁻¹) and normalised over the sphere:
 //! p(cos θ) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), 1/(4π) for g = 0.
 
+use crate::simd::{math, Float, V3};
 use glam::Vec3;
-use std::f32::consts::{FRAC_1_PI, TAU};
+use std::f32::consts::FRAC_1_PI;
 
 /// The largest |g| used: the lobe of |g| = 1 is a Dirac delta, which has no density, so
 /// g is clamped to ±`G_MAX` (a peak of about 1.6·10⁷ sr⁻¹, still finite in f32).
@@ -47,55 +48,20 @@ impl HenyeyGreenstein {
     /// g as used by every method: clamped to ±[`G_MAX`], NaN → 0.
     #[inline]
     pub fn g_clamped(&self) -> f32 {
-        if self.g.is_nan() {
-            0.0
-        } else {
-            self.g.clamp(-G_MAX, G_MAX)
-        }
+        Hg::new(self.g).g
     }
 
     /// The phase function (sr⁻¹) at the cosine of the scattering angle between the
     /// propagation directions (see the module docs); it integrates to 1 over the sphere.
     #[inline]
     pub fn eval(&self, cos_theta: f32) -> f32 {
-        let cos = cos_theta.clamp(-1.0, 1.0);
-        self.density(1.0 - cos, 1.0 + cos)
+        Hg::new(self.g).eval(cos_theta)
     }
 
-    /// The phase function from 1 − cos θ and 1 + cos θ (each in [0, 2]), so that callers
-    /// that know them more accurately than cos θ itself keep that accuracy near the peak.
-    #[inline]
-    fn density(&self, one_minus_cos: f32, one_plus_cos: f32) -> f32 {
-        let g = self.g_clamped();
-        // 1 + g² − 2g cos θ written as a sum of two non-negative terms, so it does not
-        // cancel near the peak when |g| → 1: (1−g)² + 2g(1−cos) for g ≥ 0,
-        // (1+g)² + 2|g|(1+cos) for g < 0.
-        let denom = if g >= 0.0 {
-            (1.0 - g) * (1.0 - g) + 2.0 * g * one_minus_cos
-        } else {
-            (1.0 + g) * (1.0 + g) - 2.0 * g * one_plus_cos
-        };
-        INV_4PI * (1.0 - g) * (1.0 + g) / (denom * denom.sqrt())
-    }
-
-    /// The phase function for the directions `wo`, `wi` (unit, pointing away from the
-    /// scattering point), cos θ = −`wo`·`wi`. Equal to [`Self::pdf`].
-    ///
-    /// 1 − cos θ = |wo + wi|²/2 and 1 + cos θ = |wo − wi|²/2 for unit vectors; dividing
-    /// both by (|wo + wi|² + |wo − wi|²)/4 = (|wo|² + |wi|²)/2 makes them insensitive to
-    /// the vectors' normalisation error. Near the peak of a strong lobe, where wi ≈ ∓wo,
-    /// 1 ∓ cos θ ~ 10⁻⁴ comes out to f32 precision, where 1 + wo·wi would lose three digits.
+    /// The phase function for the directions `wo` and `wi` (unit, module convention).
     #[inline]
     pub fn eval_dirs(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let sum = (wo + wi).length_squared();
-        let diff = (wo - wi).length_squared();
-        let total = sum + diff;
-        if total > 0.0 {
-            let scale = 2.0 / total;
-            self.density(sum * scale, diff * scale)
-        } else {
-            self.eval(-wo.dot(wi))
-        }
+        Hg::new(self.g).eval_dirs(wo.into(), wi.into())
     }
 
     /// The solid-angle density with which [`Self::sample`] returns `wi` given `wo`.
@@ -104,9 +70,64 @@ impl HenyeyGreenstein {
         self.eval_dirs(wo, wi)
     }
 
+    /// Samples the new direction `wi` given `wo`; see [`Hg::sample`].
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u: [f32; 2]) -> (Vec3, f32) {
+        let (wi, pdf) = Hg::new(self.g).sample(wo.into(), u);
+        (wi.into(), pdf)
+    }
+}
+
+/// Henyey–Greenstein for W paths, each with its own (clamped) g.
+#[derive(Clone, Copy, Debug)]
+pub struct Hg<F> {
+    /// g, clamped to ±[`G_MAX`] (NaN → 0).
+    pub g: F,
+}
+
+impl<F: Float> Hg<F> {
+    /// The lobes of asymmetries `g`.
+    #[inline(always)]
+    pub fn new(g: F) -> Hg<F> {
+        let g = F::select(g.ne(g), F::splat(0.0), g.clamp(-G_MAX, G_MAX));
+        Hg { g }
+    }
+
+    /// The density from 1 − cos θ and 1 + cos θ.
+    #[inline(always)]
+    fn density(&self, one_minus_cos: F, one_plus_cos: F) -> F {
+        let (g, one, two) = (self.g, F::splat(1.0), F::splat(2.0));
+        // 1 + g² − 2g cos θ written as a sum of two non-negative terms, so it does not
+        // cancel near the peak when |g| → 1: (1−g)² + 2g(1−cos) for g ≥ 0,
+        // (1+g)² + 2|g|(1+cos) for g < 0.
+        let forward = (one - g) * (one - g) + two * g * one_minus_cos;
+        let backward = (one + g) * (one + g) - two * g * one_plus_cos;
+        let denom = F::select(g.ge(F::splat(0.0)), forward, backward);
+        F::splat(INV_4PI) * (one - g) * (one + g) / (denom * denom.sqrt())
+    }
+
+    /// The phase function at the cosine of the scattering angle.
+    #[inline(always)]
+    pub fn eval(&self, cos_theta: F) -> F {
+        let cos = cos_theta.clamp(-1.0, 1.0);
+        self.density(F::splat(1.0) - cos, F::splat(1.0) + cos)
+    }
+
+    /// The phase function for the directions `wo` and `wi` (unit, module convention).
+    #[inline(always)]
+    pub fn eval_dirs(&self, wo: V3<F>, wi: V3<F>) -> F {
+        // 1 ∓ cos θ from |wo ± wi|², which do not cancel near either pole.
+        let sum = (wo + wi).length_squared();
+        let diff = (wo - wi).length_squared();
+        let total = sum + diff;
+        let scale = F::splat(2.0) / total;
+        let by_dirs = self.density(sum * scale, diff * scale);
+        F::select(total.gt(F::splat(0.0)), by_dirs, self.eval(-wo.dot(wi)))
+    }
+
     /// Samples the new direction `wi` given `wo` (unit, pointing back along the incoming
     /// ray) by inverting the CDF of cos θ with `u[0]` and drawing the azimuth with `u[1]`.
-    /// Returns `(wi, pdf)` with `pdf` = [`Self::pdf`]`(wo, wi)` (up to rounding).
+    /// Returns `(wi, pdf)` with `pdf` = [`Self::eval_dirs`]`(wo, wi)` (up to rounding).
     ///
     /// The textbook inversion cos θ = (1 + g² − ((1 − g²)/(1 − g + 2gξ))²)/(2g) divides by
     /// g and cancels badly near the peak; here 1 − cos θ and 1 + cos θ are computed as
@@ -115,28 +136,28 @@ impl HenyeyGreenstein {
     ///   1 + cos θ = (1 + g)² ξ (1 − g + t) / t²,
     /// which hold for every g including 0, and sin²θ is their product. The pdf follows from t
     /// alone: 1 + g² − 2g cos θ = ((1 − g²)/t)², so p = t³ / (4π (1 − g²)²).
-    #[inline]
-    pub fn sample(&self, wo: Vec3, u: [f32; 2]) -> (Vec3, f32) {
-        let g = self.g_clamped();
+    #[inline(always)]
+    pub fn sample(&self, wo: V3<F>, u: [F; 2]) -> (V3<F>, F) {
+        let (g, one, two) = (self.g, F::splat(1.0), F::splat(2.0));
         let xi = u[0].clamp(0.0, 1.0);
-        let (one_m_g, one_p_g) = (1.0 - g, 1.0 + g);
-        let t = one_m_g + 2.0 * g * xi;
-        let inv_t2 = 1.0 / (t * t);
-        let one_minus_cos = (one_m_g * one_m_g * (1.0 - xi) * (one_p_g + t) * inv_t2).min(2.0);
-        let one_plus_cos = (one_p_g * one_p_g * xi * (one_m_g + t) * inv_t2).min(2.0);
+        let (one_m_g, one_p_g) = (one - g, one + g);
+        let t = one_m_g + two * g * xi;
+        let inv_t2 = one / (t * t);
+        let one_minus_cos = (one_m_g * one_m_g * (one - xi) * (one_p_g + t) * inv_t2).min(two);
+        let one_plus_cos = (one_p_g * one_p_g * xi * (one_m_g + t) * inv_t2).min(two);
         // Take cos θ from whichever side is the more accurate.
-        let cos = if one_minus_cos < one_plus_cos {
-            1.0 - one_minus_cos
-        } else {
-            one_plus_cos - 1.0
-        };
-        let sin = (one_minus_cos * one_plus_cos).max(0.0).sqrt();
-        let phi = TAU * u[1];
+        let cos = F::select(
+            one_minus_cos.lt(one_plus_cos),
+            one - one_minus_cos,
+            one_plus_cos - one,
+        );
+        let sin = (one_minus_cos * one_plus_cos).max(F::splat(0.0)).sqrt();
+        let (sin_phi, cos_phi) = math::sin_cos_turns(u[1]);
         let axis = -wo;
-        let (b1, b2) = axis.any_orthonormal_pair();
-        let wi = cos * axis + sin * (phi.cos() * b1 + phi.sin() * b2);
+        let (b1, b2) = axis.basis();
+        let wi = axis * cos + (b1 * cos_phi + b2 * sin_phi) * sin;
         let one_m_g2 = one_m_g * one_p_g;
-        let pdf = INV_4PI * t * t * t / (one_m_g2 * one_m_g2);
+        let pdf = F::splat(INV_4PI) * t * t * t / (one_m_g2 * one_m_g2);
         (wi, pdf)
     }
 }

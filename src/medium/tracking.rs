@@ -41,11 +41,13 @@
 //! (Max and fluorescence-aware have p_k > 0 wherever value_k > 0).
 //!
 //! # Numerics
-//! 1 − e^{−x} is computed with `exp_m1` and its inverse with `ln_1p`; the integral
+//! 1 − e^{−x} is computed with `exp_m1` and its inverse with `ln_1p` (the polynomials of
+//! [`crate::simd::math`], the same bits at every lane width); the integral
 //! (1 − e^{−σ d})/σ switches to its series below σd = 10⁻⁵ (so σ̂_t = 0 is exact). Dense
 //! (σ̂_t d = 100) and thin (σ̂_t d = 10⁻⁴) segments give finite results; a sampled
 //! collision always lies in [0, d).
 
+use crate::simd::{math, Float, Spec};
 use glam::Vec4;
 
 /// A distance-sampling strategy. Its names (`classic`, `max`, `fluo-aware`) and the
@@ -60,7 +62,8 @@ pub enum Tracking {
     FluoAware,
 }
 
-/// The outcome of distance sampling on a segment.
+/// The outcome of distance sampling on a segment (one path; see [`sample_distance`] for
+/// W paths at once).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DistanceSample {
     /// A real collision at distance `t` ∈ [0, d).
@@ -70,84 +73,68 @@ pub enum DistanceSample {
 }
 
 /// A coefficient as used here: negative and NaN count as 0.
-#[inline]
-fn coeff(x: f32) -> f32 {
-    x.max(0.0)
+#[inline(always)]
+fn coeff<F: Float>(x: F) -> F {
+    x.max(F::splat(0.0))
 }
 
 /// ∫₀ᵗ e^{−σ s} ds = (1 − e^{−σ t})/σ, → t as σt → 0 (exact at σ = 0).
-#[inline]
-fn integral_exp(sigma: f32, t: f32) -> f32 {
+#[inline(always)]
+fn integral_exp<F: Float>(sigma: F, t: F) -> F {
     let tau = sigma * t;
-    if tau < 1e-5 {
-        t * (1.0 - 0.5 * tau)
-    } else {
-        -(-tau).exp_m1() / sigma
-    }
+    let series = t * (F::splat(1.0) - F::splat(0.5) * tau);
+    F::select(tau.lt(F::splat(1e-5)), series, -math::exp_m1(-tau) / sigma)
 }
 
-/// The fluorescence-aware normalisation N = e^{−σ̂_t d} + σ̂_s (1 − e^{−σ̂_t d})/σ̂_t
-/// (→ 1 + σ̂_s d as σ̂_t → 0): the hero's weight for either outcome. Always ≥ e^{−σ̂_t d}.
-#[inline]
-pub fn fluo_aware_norm(sigma_t: f32, sigma_s: f32, d: f32) -> f32 {
-    let (st, ss, d) = (coeff(sigma_t), coeff(sigma_s), d.max(0.0));
-    (-st * d).exp() + ss * integral_exp(st, d)
+/// The fluorescence-aware normalisation N = e^{−σ̂_t d} + σ̂_s ∫₀ᵈ e^{−σ̂_t s} ds: the hero's
+/// weight for both outcomes.
+#[inline(always)]
+pub fn fluo_aware_norm<F: Float>(sigma_t: F, sigma_s: F, d: F) -> F {
+    let (st, ss, d) = (coeff(sigma_t), coeff(sigma_s), d.max(F::splat(0.0)));
+    math::exp(-st * d) + ss * integral_exp(st, d)
 }
 
-/// Exponential free-flight with rate `mu` truncated at `d`: t = −ln(1 − u)/μ.
-#[inline]
-fn sample_exponential(mu: f32, d: f32, u: f32) -> DistanceSample {
-    if !(mu > 0.0 && d > 0.0) {
-        return DistanceSample::Surface;
-    }
-    let t = -(-u).ln_1p() / mu;
-    if t < d {
-        DistanceSample::Collision { t }
-    } else {
-        DistanceSample::Surface
-    }
+/// Exponential sampling with rate `mu` on [0, d): which paths collide, and where.
+#[inline(always)]
+fn sample_exponential<F: Float>(mu: F, d: F, u: F) -> (F::Mask, F) {
+    let zero = F::splat(0.0);
+    let ok = mu.gt(zero) & d.gt(zero);
+    let t = -math::ln_1p(-u) / mu;
+    (ok & t.lt(d), t)
 }
 
-/// Fluorescence-aware sampling: collide when u·N < σ̂_s (1 − e^{−σ̂_t d})/σ̂_t, then invert
-/// ∫₀ᵗ e^{−σ̂_t s} ds = u·N/σ̂_s.
-#[inline]
-fn sample_fluo_aware(st: f32, ss: f32, d: f32, u: f32) -> DistanceSample {
-    if !(ss > 0.0 && d > 0.0) {
-        return DistanceSample::Surface;
-    }
+/// The paper's density σ̂_s e^{−σ̂_t t}/N on [0, d), surface with probability e^{−σ̂_t d}/N.
+#[inline(always)]
+fn sample_fluo_aware<F: Float>(st: F, ss: F, d: F, u: F) -> (F::Mask, F) {
+    let (zero, one) = (F::splat(0.0), F::splat(1.0));
+    let ok = ss.gt(zero) & d.gt(zero);
     let collide = ss * integral_exp(st, d);
-    let x = u * ((-st * d).exp() + collide);
+    let x = u * (math::exp(-st * d) + collide);
     // Written so that a NaN falls through to the surface.
-    let g = if x < collide {
-        x / ss
-    } else {
-        return DistanceSample::Surface;
-    };
+    let hit = ok & x.lt(collide);
     // g = ∫₀ᵗ e^{−σ̂_t s} ds, y = σ̂_t g = 1 − e^{−σ̂_t t} ∈ [0, 1).
-    let y = (st * g).min(1.0);
-    let t = if y < 1e-5 {
-        g * (1.0 + y * (0.5 + y * (1.0 / 3.0)))
-    } else {
-        -(-y).ln_1p() / st
-    };
+    let g = x / ss;
+    let y = (st * g).min(one);
+    let series = g * (one + y * (F::splat(0.5) + y * F::splat(1.0 / 3.0)));
+    let t = F::select(y.lt(F::splat(1e-5)), series, -math::ln_1p(-y) / st);
     // Rounding may push t to d or beyond (or to ∞ when y rounds to 1): the event was a
-    // collision, so keep it inside the segment.
-    DistanceSample::Collision {
-        t: t.clamp(0.0, d.next_down()),
-    }
+    // collision, so keep it inside the segment (d·(1 − 2⁻²⁴) is the float below d).
+    let below_d = d * F::splat(1.0 - f32::EPSILON / 2.0);
+    (hit, t.max(zero).min(below_d))
 }
 
-/// Samples a collision distance on [0, d) or the surface, with the hero's (lane 0)
-/// coefficients; `u` ∈ [0, 1).
-#[inline]
-pub fn sample_distance(
+/// Samples the distance to the next collision on a segment of length `d` with the hero's
+/// coefficients `sigma_t`, `sigma_s` (σ̂_t, σ̂_s of W paths): the paths that collide before
+/// `d`, and their collision distances (meaningless elsewhere).
+#[inline(always)]
+pub fn sample_distance<F: Float>(
     method: Tracking,
-    sigma_t: Vec4,
-    sigma_s: Vec4,
-    d: f32,
-    u: f32,
-) -> DistanceSample {
-    let (st, ss) = (coeff(sigma_t.x), coeff(sigma_s.x));
+    sigma_t: F,
+    sigma_s: F,
+    d: F,
+    u: F,
+) -> (F::Mask, F) {
+    let (st, ss) = (coeff(sigma_t), coeff(sigma_s));
     match method {
         Tracking::Classic => sample_exponential(st, d, u),
         Tracking::Max => sample_exponential(st.max(ss), d, u),
@@ -155,73 +142,88 @@ pub fn sample_distance(
     }
 }
 
-/// One lane's density of a collision at `t` (0 outside [0, d)).
-#[inline]
-pub fn pdf_collision_lane(method: Tracking, sigma_t: f32, sigma_s: f32, d: f32, t: f32) -> f32 {
-    if !(t >= 0.0 && t < d) {
-        return 0.0;
+/// One path's [`sample_distance`] from the hero lanes of `sigma_t`, `sigma_s`.
+pub fn sample_distance1(
+    method: Tracking,
+    sigma_t: Vec4,
+    sigma_s: Vec4,
+    d: f32,
+    u: f32,
+) -> DistanceSample {
+    match sample_distance(method, sigma_t.x, sigma_s.x, d, u) {
+        (true, t) => DistanceSample::Collision { t },
+        (false, _) => DistanceSample::Surface,
     }
+}
+
+/// The density (per unit length) with which `method`, with coefficients σ̂_t, σ̂_s at
+/// one wavelength, samples a collision at `t` on a segment of length `d`; 0 outside
+/// [0, d).
+#[inline(always)]
+pub fn pdf_collision_lane<F: Float>(method: Tracking, sigma_t: F, sigma_s: F, d: F, t: F) -> F {
+    let zero = F::splat(0.0);
+    let inside = t.ge(zero) & t.lt(d);
     let (st, ss) = (coeff(sigma_t), coeff(sigma_s));
-    match method {
-        Tracking::Classic => st * (-st * t).exp(),
+    let p = match method {
+        Tracking::Classic => st * math::exp(-st * t),
         Tracking::Max => {
             let mu = st.max(ss);
-            mu * (-mu * t).exp()
+            mu * math::exp(-mu * t)
         }
         Tracking::FluoAware => {
-            if ss <= 0.0 {
-                return 0.0;
-            }
             let n = fluo_aware_norm(st, ss, d);
-            if n > 0.0 {
-                ss * (-st * t).exp() / n
-            } else {
-                0.0
-            }
+            let p = ss * math::exp(-st * t) / n;
+            p.masked(ss.gt(zero) & n.gt(zero))
         }
-    }
+    };
+    p.masked(inside)
 }
 
-/// One lane's probability of reaching the surface at `d` (1 for d ≤ 0).
-#[inline]
-pub fn prob_surface_lane(method: Tracking, sigma_t: f32, sigma_s: f32, d: f32) -> f32 {
-    let (st, ss, d) = (coeff(sigma_t), coeff(sigma_s), d.max(0.0));
+/// The probability with which `method` reaches the end of a segment of length `d`, with
+/// coefficients σ̂_t, σ̂_s at one wavelength.
+#[inline(always)]
+pub fn prob_surface_lane<F: Float>(method: Tracking, sigma_t: F, sigma_s: F, d: F) -> F {
+    let (st, ss, d) = (coeff(sigma_t), coeff(sigma_s), d.max(F::splat(0.0)));
     match method {
-        Tracking::Classic => (-st * d).exp(),
-        Tracking::Max => (-st.max(ss) * d).exp(),
+        Tracking::Classic => math::exp(-st * d),
+        Tracking::Max => math::exp(-st.max(ss) * d),
         Tracking::FluoAware => {
-            let tr = (-st * d).exp();
+            let tr = math::exp(-st * d);
             let n = tr + ss * integral_exp(st, d);
             // n = 0 only when both terms underflow; the sampler then returns the surface.
-            if n > 0.0 {
-                tr / n
-            } else {
-                1.0
-            }
+            F::select(n.gt(F::splat(0.0)), tr / n, F::splat(1.0))
         }
     }
 }
 
-/// Per-lane density of a collision at `t` (< d), as if lane k were the hero.
-#[inline]
-pub fn pdf_collision(method: Tracking, sigma_t: Vec4, sigma_s: Vec4, d: f32, t: f32) -> Vec4 {
-    Vec4::from_array(std::array::from_fn(|k| {
-        pdf_collision_lane(method, sigma_t[k], sigma_s[k], d, t)
-    }))
+/// [`pdf_collision_lane`] for the four wavelengths: with which density lane k, as hero,
+/// would have sampled the collision at `t`.
+#[inline(always)]
+pub fn pdf_collision<F: Float>(
+    method: Tracking,
+    sigma_t: Spec<F>,
+    sigma_s: Spec<F>,
+    d: F,
+    t: F,
+) -> Spec<F> {
+    sigma_t.zip(sigma_s, |st, ss| pdf_collision_lane(method, st, ss, d, t))
 }
 
-/// Per-lane probability of reaching the surface at `d`, as if lane k were the hero.
-#[inline]
-pub fn prob_surface(method: Tracking, sigma_t: Vec4, sigma_s: Vec4, d: f32) -> Vec4 {
-    Vec4::from_array(std::array::from_fn(|k| {
-        prob_surface_lane(method, sigma_t[k], sigma_s[k], d)
-    }))
+/// [`prob_surface_lane`] for the four wavelengths.
+#[inline(always)]
+pub fn prob_surface<F: Float>(
+    method: Tracking,
+    sigma_t: Spec<F>,
+    sigma_s: Spec<F>,
+    d: F,
+) -> Spec<F> {
+    sigma_t.zip(sigma_s, |st, ss| prob_surface_lane(method, st, ss, d))
 }
 
-/// Per-lane transmittance e^{−σ̂_t t} over a distance `t` ≥ 0.
-#[inline]
-pub fn transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
-    (sigma_t.max(Vec4::ZERO) * -t).exp()
+/// Transmittance e^{−σ̂_t t} per wavelength.
+#[inline(always)]
+pub fn transmittance<F: Float>(sigma_t: Spec<F>, t: F) -> Spec<F> {
+    sigma_t.map(|s| math::exp(coeff(s) * -t))
 }
 
 #[cfg(test)]
@@ -230,22 +232,20 @@ mod tests {
 
     #[test]
     fn norm_limits() {
-        assert_eq!(fluo_aware_norm(0.0, 2.0, 3.0), 7.0);
-        assert!((fluo_aware_norm(1e-9, 2.0, 3.0) - 7.0).abs() < 1e-5);
-        assert_eq!(fluo_aware_norm(5.0, 0.0, 1.0), (-5.0f32).exp());
+        assert_eq!(fluo_aware_norm(0.0f32, 2.0, 3.0), 7.0);
+        assert!((fluo_aware_norm(1e-9f32, 2.0, 3.0) - 7.0).abs() < 1e-5);
+        assert!((fluo_aware_norm(5.0f32, 0.0, 1.0) - (-5.0f32).exp()).abs() < 1e-8);
         // σ̂_s = σ̂_t: N = 1 (the weights of an ordinary scattering medium).
-        assert!((fluo_aware_norm(1.3, 1.3, 2.0) - 1.0).abs() < 1e-6);
+        assert!((fluo_aware_norm(1.3f32, 1.3, 2.0) - 1.0).abs() < 1e-6);
     }
 
     #[test]
     fn zero_length_segment_reaches_the_surface() {
         let s = Vec4::new(1.0, 0.0, 3.0, 0.5);
         for m in [Tracking::Classic, Tracking::Max, Tracking::FluoAware] {
-            assert_eq!(sample_distance(m, s, s, 0.0, 0.0), DistanceSample::Surface);
-            assert_eq!(
-                prob_surface(m, s, Vec4::new(0.0, 1.0, 0.5, 3.0), 0.0),
-                Vec4::ONE
-            );
+            assert_eq!(sample_distance1(m, s, s, 0.0, 0.0), DistanceSample::Surface);
+            let p = prob_surface(m, s.into(), Vec4::new(0.0, 1.0, 0.5, 3.0).into(), 0.0f32);
+            assert_eq!(Vec4::from(p), Vec4::ONE);
         }
     }
 }

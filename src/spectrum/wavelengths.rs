@@ -5,6 +5,7 @@
 //! back into the range. Because the offsets are a rotation of the circle the range forms,
 //! every lane is *marginally* uniform too, so all four share the pdf 1/Δ.
 
+use crate::simd::{Float, Spec};
 use glam::Vec4;
 
 use super::{LAMBDA_MIN, LAMBDA_RANGE};
@@ -42,7 +43,7 @@ impl SampledWavelengths {
     /// hero so that per-lane code needs no special case; the integrator masks lanes 1–3.
     pub fn sample_mono(u: f32) -> Self {
         Self {
-            lambda: Vec4::splat(to_lambda(u)),
+            lambda: mono(u).into(),
         }
     }
 
@@ -63,8 +64,26 @@ impl SampledWavelengths {
     }
 }
 
-fn to_lambda(u: f32) -> f32 {
-    (LAMBDA_MIN + u * LAMBDA_RANGE).clamp(LAMBDA_MIN, LAMBDA_BELOW_MAX)
+fn to_lambda<F: Float>(u: F) -> F {
+    (F::splat(LAMBDA_MIN) + u * F::splat(LAMBDA_RANGE)).clamp(LAMBDA_MIN, LAMBDA_BELOW_MAX)
+}
+
+/// The HWSS wavelengths of W paths from their uniforms `u`: the hero at `u`, the others a
+/// quarter of the range apart, wrapped.
+#[inline(always)]
+pub fn hwss<F: Float>(u: F) -> Spec<F> {
+    let one = F::splat(1.0);
+    let lane = |k: f32| {
+        let v = u + F::splat(0.25 * k);
+        to_lambda(F::select(v.ge(one), v - one, v))
+    };
+    Spec([lane(0.0), lane(1.0), lane(2.0), lane(3.0)])
+}
+
+/// One wavelength per path, in every lane (monochromatic sampling).
+#[inline(always)]
+pub fn mono<F: Float>(u: F) -> Spec<F> {
+    Spec::broadcast(to_lambda(u))
 }
 
 #[cfg(test)]

@@ -110,6 +110,12 @@ impl TestRender {
         self
     }
 
+    /// Which pixel samples start together in a packet.
+    pub fn layout(mut self, layout: stokes::method::Layout) -> Self {
+        self.opts.layout = layout;
+        self
+    }
+
     /// Renders `scene` (see [`render_at`]).
     pub fn film(&self, scene: &mut Scene) -> Film {
         render_at(scene, self.size.0, self.size.1, &self.opts)

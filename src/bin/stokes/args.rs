@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use stokes::error::{Error, Key};
 use stokes::integrator::render::RenderOptions;
 use stokes::medium::tracking::Tracking;
-use stokes::method::{Axis, Dispersion, Method, Rays, Shifting, Spectral};
+use stokes::method::{Axis, Dispersion, Layout, Method, Rays, Shifting, Spectral};
 use stokes::scene::Scene;
 use stokes::tools::converge;
 
@@ -101,6 +101,9 @@ pub struct MethodArgs {
     /// path into four single-wavelength paths.
     #[arg(long, value_parser = axis::<Dispersion>(), default_value_t = Dispersion::default())]
     pub dispersion: Dispersion,
+    /// Which pixel samples start together in a packet (packet modes; same image).
+    #[arg(long, value_parser = axis::<Layout>(), default_value_t = Layout::default())]
+    pub layout: Layout,
 }
 
 impl MethodArgs {
@@ -142,6 +145,7 @@ impl MethodArgs {
             max_depth: self.max_depth.unwrap_or(scene.render.max_depth),
             threads: self.threads,
             method: self.method(),
+            layout: self.layout,
         };
         opts.validate()?;
         Ok(opts)

@@ -1,0 +1,413 @@
+//! The driver: feeds pixel samples to W lanes of paths ([`Paths`]) and their rays to
+//! Embree, W at a time ([`Width`]: single rays for W = 1, `rtcIntersect4`/`rtcOccluded4`
+//! for W = 4).
+//!
+//! A lane whose path ends takes the next pixel sample at once (or a path split off at a
+//! dispersive refraction), so the lanes stay busy until the work runs out. Each pixel
+//! sample's radiance goes to its own slot, and the film adds the slots in sample order
+//! afterwards: which lane or packet carried a sample changes nothing in the image.
+
+use super::path::Paths;
+use super::shadow::Shadows;
+use super::{PathOptions, PathStats};
+use crate::accel::{self, Coherence, Hits4, Ray, Rays4};
+use crate::method::Spectral;
+use crate::sampler::{LazyStream, Pcg32};
+use crate::scene::Scene;
+use crate::simd::{Float, Lanes, Mask, F4, V3};
+use crate::spectrum;
+use glam::{Vec3, Vec4};
+
+/// The closest hits of W rays.
+#[derive(Clone, Copy, Debug)]
+pub struct Hits<F: Float> {
+    /// The lanes whose ray hit something.
+    pub valid: F::Mask,
+    /// Distances along the rays (in units of their direction's length).
+    pub t: F,
+    /// Unnormalised geometric normals.
+    pub ng: V3<F>,
+    /// Geometry ids.
+    pub geom: F::Arr<u32>,
+    /// Triangle indices.
+    pub prim: F::Arr<u32>,
+}
+
+/// A lane width the renderer traces with: how W rays go to Embree.
+pub trait Width: Float {
+    /// The closest hits of the rays `org + t·dir`, t in `[0, tfar]`, of the lanes in
+    /// `active` (the other lanes miss).
+    fn intersect(
+        accel: &accel::Scene,
+        org: &V3<Self>,
+        dir: &V3<Self>,
+        tfar: Self,
+        active: Self::Mask,
+        coherence: Coherence,
+    ) -> Hits<Self>;
+    /// The lanes of `active` whose ray is blocked.
+    fn occluded(
+        accel: &accel::Scene,
+        org: &V3<Self>,
+        dir: &V3<Self>,
+        tfar: Self,
+        active: Self::Mask,
+    ) -> Self::Mask;
+}
+
+impl Width for f32 {
+    #[inline(always)]
+    fn intersect(
+        accel: &accel::Scene,
+        org: &V3<f32>,
+        dir: &V3<f32>,
+        tfar: f32,
+        active: bool,
+        _: Coherence,
+    ) -> Hits<f32> {
+        let hit = if active {
+            let ray = Ray {
+                org: (*org).into(),
+                dir: (*dir).into(),
+                tnear: 0.0,
+                tfar,
+            };
+            accel.intersect1(&ray)
+        } else {
+            None
+        };
+        match hit {
+            Some(h) => Hits {
+                valid: true,
+                t: h.t,
+                ng: h.ng.into(),
+                geom: [h.geom_id],
+                prim: [h.prim_id],
+            },
+            None => Hits {
+                valid: false,
+                t: 0.0,
+                ng: V3::splat(Vec3::Z),
+                geom: [u32::MAX],
+                prim: [0],
+            },
+        }
+    }
+
+    #[inline(always)]
+    fn occluded(
+        accel: &accel::Scene,
+        org: &V3<f32>,
+        dir: &V3<f32>,
+        tfar: f32,
+        active: bool,
+    ) -> bool {
+        active && {
+            let ray = Ray {
+                org: (*org).into(),
+                dir: (*dir).into(),
+                tnear: 0.0,
+                tfar,
+            };
+            accel.occluded1(&ray)
+        }
+    }
+}
+
+/// Four rays in Embree's layout.
+#[inline(always)]
+fn rays4(org: &V3<F4>, dir: &V3<F4>, tfar: F4) -> Rays4 {
+    let a = |f: F4| f.0.to_array();
+    Rays4 {
+        org: [a(org.x), a(org.y), a(org.z)],
+        dir: [a(dir.x), a(dir.y), a(dir.z)],
+        tfar: a(tfar),
+    }
+}
+
+/// The lanes of a mask as Embree's `valid` flags.
+#[inline(always)]
+fn flags4(m: <F4 as Float>::Mask) -> [bool; 4] {
+    std::array::from_fn(|k| m.get(k))
+}
+
+impl Width for F4 {
+    #[inline(always)]
+    fn intersect(
+        accel: &accel::Scene,
+        org: &V3<F4>,
+        dir: &V3<F4>,
+        tfar: F4,
+        active: <F4 as Float>::Mask,
+        coherence: Coherence,
+    ) -> Hits<F4> {
+        let h: Hits4 = accel.intersect4_soa(&rays4(org, dir, tfar), flags4(active), coherence);
+        let f = |a: [f32; 4]| F4(wide::f32x4::new(a));
+        Hits {
+            valid: Mask::from_fn(|k| h.geom[k] != u32::MAX),
+            t: f(h.t),
+            ng: V3::new(f(h.ng[0]), f(h.ng[1]), f(h.ng[2])),
+            geom: h.geom,
+            prim: h.prim,
+        }
+    }
+
+    #[inline(always)]
+    fn occluded(
+        accel: &accel::Scene,
+        org: &V3<F4>,
+        dir: &V3<F4>,
+        tfar: F4,
+        active: <F4 as Float>::Mask,
+    ) -> <F4 as Float>::Mask {
+        let o = accel.occluded4_soa(
+            &rays4(org, dir, tfar),
+            flags4(active),
+            Coherence::Incoherent,
+        );
+        Mask::from_fn(|k| o[k])
+    }
+}
+
+/// One pixel sample: pixel (x, y), sample index `index` of that pixel's streams, and the
+/// `slot` its radiance and wavelengths go to.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SampleId {
+    /// Column.
+    pub x: u32,
+    /// Row.
+    pub y: u32,
+    /// Sample index.
+    pub index: u32,
+    /// Where the results go.
+    pub slot: u32,
+}
+
+/// The W lanes of paths and their buffers, kept from one batch of samples to the next.
+pub struct Tracer<F: Width> {
+    paths: Paths<F>,
+    shadows: Shadows<F>,
+    /// Paths split off at dispersive refractions, waiting for a lane.
+    pending: Vec<Paths<f32>>,
+    /// Packet lanes that carried a ray (W > 1).
+    pub lanes_used: u64,
+    /// Lanes of all packets traced (W per query, W > 1).
+    pub lanes_total: u64,
+    /// Refill lanes only when every lane is free (the samples of a packet run until the
+    /// longest path ends, as Mitsuba 3 runs them), to measure what refilling buys.
+    pub lockstep: bool,
+    /// The lanes the tracer may fill (bit i for lane i; all by default): a test hook for
+    /// packets with empty lanes.
+    pub usable: u32,
+}
+
+impl<F: Width> Default for Tracer<F> {
+    fn default() -> Tracer<F> {
+        Tracer {
+            paths: Paths::empty(),
+            shadows: Shadows::default(),
+            pending: Vec::new(),
+            lanes_used: 0,
+            lanes_total: 0,
+            lockstep: false,
+            usable: u32::MAX,
+        }
+    }
+}
+
+impl<F: Width> Tracer<F> {
+    /// Runs every sample of `work` to its end: `results[slot]` gets the sample's radiance
+    /// at its camera wavelengths (balance-heuristic weighted, see [`super::radiance`]),
+    /// `lambdas[slot]` the wavelengths.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run<const MEDIA: bool>(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        seed: u64,
+        work: &mut impl Iterator<Item = SampleId>,
+        results: &mut [Vec4],
+        lambdas: &mut [Vec4],
+        stats: &mut PathStats,
+    ) {
+        loop {
+            self.refill(scene, opts, seed, work, lambdas);
+            let live = self.paths.alive;
+            if live.none() {
+                break;
+            }
+            self.advance::<MEDIA>(scene, opts, stats);
+            for i in (live & !self.paths.alive).iter() {
+                let slot = self.paths.slot[i] as usize;
+                self.paths.add_to(i, &mut results[slot]);
+            }
+        }
+    }
+
+    /// Gives every free lane a path: a waiting split-off path, else the next sample of
+    /// `work`.
+    #[inline(always)]
+    fn refill(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        seed: u64,
+        work: &mut impl Iterator<Item = SampleId>,
+        lambdas: &mut [Vec4],
+    ) {
+        let mut free = !self.paths.alive & F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
+        if free.none() || (self.lockstep && self.paths.alive.any()) {
+            return;
+        }
+        for i in free.iter() {
+            match self.pending.pop() {
+                Some(child) => {
+                    self.paths.set_path(i, &child);
+                    free = free.with(i, false);
+                }
+                None => break,
+            }
+        }
+        let mut fresh = F::Mask::splat(false);
+        let mut ids: F::Arr<SampleId> = Lanes::splat(SampleId::default());
+        for i in free.iter() {
+            match work.next() {
+                Some(id) => {
+                    ids[i] = id;
+                    fresh = fresh.with(i, true);
+                }
+                None => break,
+            }
+        }
+        if fresh.any() {
+            self.start(scene, opts, seed, fresh, &ids, lambdas);
+        }
+    }
+
+    /// Starts the camera paths of samples `ids` in the lanes of `m`: a jittered ray
+    /// through the pixel, the wavelengths, and the sample's two random streams (seed,
+    /// pixel, sample index), in that order of draws.
+    #[inline(always)]
+    fn start(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        seed: u64,
+        m: F::Mask,
+        ids: &F::Arr<SampleId>,
+        lambdas: &mut [Vec4],
+    ) {
+        let camera = &scene.camera;
+        let mut rng: F::Arr<Pcg32> = Lanes::splat(Pcg32::new(0, 0));
+        let mut shift: F::Arr<LazyStream> = Lanes::splat(LazyStream::new(0, 0, 0));
+        let mut slot: F::Arr<u32> = Lanes::splat(0);
+        let (mut x, mut y, mut u) = (F::splat(0.5), F::splat(0.5), F::splat(0.0));
+        for i in m.iter() {
+            let id = ids[i];
+            let pixel = id.y as u64 * camera.width as u64 + id.x as u64;
+            let mut r = Pcg32::for_sample(seed, pixel, id.index as u64);
+            let [jx, jy] = r.next_2d();
+            x.set(i, id.x as f32 + jx);
+            y.set(i, id.y as f32 + jy);
+            u.set(i, r.next_f32());
+            rng[i] = r;
+            // The shift stream: a second, independent stream of the same pixel sample.
+            shift[i] = LazyStream::new(seed, pixel, id.index as u64);
+            slot[i] = id.slot;
+        }
+        let dirs = camera.dirs(x, y);
+        let lambda = match opts.method.spectral {
+            Spectral::Hwss => spectrum::hwss(u),
+            Spectral::Mono => spectrum::mono(u),
+        };
+        for i in m.iter() {
+            lambdas[slot[i] as usize] = lambda.path(i);
+        }
+        let org = V3::splat(camera.position);
+        self.paths
+            .start(scene, opts, m, org, dirs, lambda, &rng, &shift, &slot);
+    }
+
+    /// One step of every live path: trace, step, trace the shadow rays.
+    #[inline(always)]
+    fn advance<const MEDIA: bool>(
+        &mut self,
+        scene: &Scene,
+        opts: &PathOptions,
+        stats: &mut PathStats,
+    ) {
+        let accel = &scene.accel;
+        let paths = &mut self.paths;
+        let live = paths.alive;
+        // Camera rays that start together go out as one coherent packet.
+        let coherence = if F::WIDTH > 1 && (live & !paths.at_camera).none() {
+            Coherence::Coherent
+        } else {
+            Coherence::Incoherent
+        };
+        let inf = F::splat(f32::INFINITY);
+        let hits = F::intersect(accel, &paths.org, &paths.dir, inf, live, coherence);
+        if F::WIDTH > 1 {
+            self.lanes_used += live.bits().count_ones() as u64;
+            self.lanes_total += F::WIDTH as u64;
+        }
+        let shadows = &mut self.shadows;
+        shadows.active = F::Mask::splat(false);
+        paths.step::<MEDIA>(scene, opts, &hits, stats, shadows, &mut self.pending);
+        if shadows.active.none() {
+            return;
+        }
+        if !MEDIA {
+            let s = &*shadows;
+            let blocked = F::occluded(accel, &s.org, &s.dir, s.tfar, s.active);
+            let reached = s.active & !blocked;
+            paths.l.set_where(reached, paths.l + s.contribution);
+            if F::WIDTH > 1 {
+                self.lanes_used += s.active.bits().count_ones() as u64;
+                self.lanes_total += F::WIDTH as u64;
+            }
+            return;
+        }
+        while shadows.active.any() {
+            let m = shadows.active;
+            let h = F::intersect(
+                accel,
+                &shadows.org,
+                &shadows.dir,
+                shadows.tfar,
+                m,
+                Coherence::Incoherent,
+            );
+            if F::WIDTH > 1 {
+                self.lanes_used += m.bits().count_ones() as u64;
+                self.lanes_total += F::WIDTH as u64;
+            }
+            let (reached, add) = shadows.segment(scene, opts.method.tracking, &h);
+            paths.l.set_where(reached, paths.l + add);
+            stats.rays += shadows.active.bits().count_ones() as u64;
+        }
+    }
+}
+
+/// Runs one path (and the paths it splits into) to its end with single rays; returns its
+/// radiance at its camera wavelengths.
+pub fn trace_one(
+    scene: &Scene,
+    opts: &PathOptions,
+    path: Paths<f32>,
+    stats: &mut PathStats,
+) -> Vec4 {
+    let mut tracer = Tracer::<f32> {
+        paths: path,
+        ..Tracer::default()
+    };
+    let mut results = [Vec4::ZERO];
+    let mut lambdas = [Vec4::ZERO];
+    let mut none = std::iter::empty();
+    if scene.has_media() {
+        tracer.run::<true>(scene, opts, 0, &mut none, &mut results, &mut lambdas, stats);
+    } else {
+        tracer.run::<false>(scene, opts, 0, &mut none, &mut results, &mut lambdas, stats);
+    }
+    results[0]
+}
