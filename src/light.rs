@@ -349,25 +349,23 @@ impl Lights {
         if self.triangles.is_empty() {
             return s;
         }
-        // Per path: the triangle, its corner and edges.
-        let (mut p0, mut e1, mut e2) = (s.p, s.p, s.p);
-        let mut chosen: F::Arr<bool> = Lanes::splat(false);
-        let mut two_sided: F::Arr<bool> = Lanes::splat(false);
-        for i in active.iter() {
+        // Per path: the triangle (by power), if it can be sampled.
+        let tri: F::Arr<Option<usize>> = Lanes::from_fn(|i| {
             let k = self.pick(u[0].get(i));
             let t = &self.triangles[k];
-            if self.pmf[k] <= 0.0 || t.area <= 0.0 {
-                continue;
-            }
-            chosen[i] = true;
-            two_sided[i] = self.emitters[t.emitter as usize].two_sided;
-            p0.set_path(i, t.p0);
-            e1.set_path(i, t.e1);
-            e2.set_path(i, t.e2);
-            s.n.set_path(i, t.n);
-            s.emitter[i] = t.emitter;
-            s.pdf_area.set(i, self.pmf[k] / t.area);
-        }
+            (active.get(i) && self.pmf[k] > 0.0 && t.area > 0.0).then_some(k)
+        });
+        let get = |i: usize| tri[i].map(|k| &self.triangles[k]);
+        let p0 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.p0));
+        let e1 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.e1));
+        let e2 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.e2));
+        s.n = V3::from_fn(|i| get(i).map_or(Vec3::Z, |t| t.n));
+        s.emitter = Lanes::from_fn(|i| get(i).map_or(0, |t| t.emitter));
+        s.pdf_area = F::from_fn(|i| tri[i].map_or(0.0, |k| self.pmf[k] / self.triangles[k].area));
+        let chosen = F::Mask::from_fn(|i| tri[i].is_some());
+        let two_sided = F::Mask::from_fn(|i| {
+            get(i).is_some_and(|t| self.emitters[t.emitter as usize].two_sided)
+        });
         // Uniform on the triangle (square-root parametrisation).
         let su = u[1].sqrt();
         let (b1, b2) = (F::splat(1.0) - su, u[2] * su);
@@ -378,9 +376,8 @@ impl Lights {
         s.wi = to / d;
         let cos_l = s.n.dot(-s.wi);
         let zero = F::splat(0.0);
-        let two_sided = F::Mask::from_fn(|i| two_sided[i]);
         let emits = cos_l.gt(zero) | (two_sided & cos_l.lt(zero));
-        s.valid = F::Mask::from_fn(|i| chosen[i]) & d.gt(zero) & emits;
+        s.valid = chosen & d.gt(zero) & emits;
         s.pdf = s.pdf_area * d2 / cos_l.abs();
         s
     }

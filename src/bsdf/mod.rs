@@ -83,6 +83,18 @@ impl Ior {
         }
     }
 
+    /// n at the four wavelengths of the W paths of `m` (1 elsewhere).
+    #[inline(always)]
+    pub fn eval_w<F: Float>(&self, lambda: &Spec<F>, m: F::Mask) -> Spec<F> {
+        match *self {
+            Ior::Constant(n) => Spec::splat(n),
+            _ => Spec::from_fn(|i| match m.get(i) {
+                true => self.eval4(lambda.path(i)),
+                false => Vec4::ONE,
+            }),
+        }
+    }
+
     /// Whether n varies with wavelength (then refraction splits the lanes).
     pub fn is_dispersive(&self) -> bool {
         !matches!(self, Ior::Constant(_))
@@ -307,34 +319,72 @@ impl<F: Float> Lobes<F> {
     /// The lobes of the paths in `active`: path i's is `lobe(i)`.
     #[inline(always)]
     pub fn from_fn(active: F::Mask, mut lobe: impl FnMut(usize) -> Lobe) -> Lobes<F> {
-        let mut kind: F::Arr<u8> = Lanes::splat(0);
-        let (mut albedo, mut n_in) = (Spec::splat(1.0), Spec::splat(1.0));
-        let mut ext_ior = F::splat(1.0);
-        for i in active.iter() {
-            match lobe(i) {
-                Lobe::Diffuse(a) => {
-                    kind[i] = 1;
-                    albedo.set_path(i, a);
+        let l: F::Arr<Option<Lobe>> = Lanes::from_fn(|i| active.get(i).then(|| lobe(i)));
+        let albedo = Spec::from_fn(|i| match l[i] {
+            Some(Lobe::Diffuse(a) | Lobe::Mirror(a)) => a,
+            _ => Vec4::ONE,
+        });
+        let n_in = Spec::from_fn(|i| match l[i] {
+            Some(Lobe::Dielectric(n, _)) => n,
+            _ => Vec4::ONE,
+        });
+        Lobes {
+            diffuse: F::Mask::from_fn(|i| matches!(l[i], Some(Lobe::Diffuse(_)))),
+            mirror: F::Mask::from_fn(|i| matches!(l[i], Some(Lobe::Mirror(_)))),
+            dielectric: F::Mask::from_fn(|i| matches!(l[i], Some(Lobe::Dielectric(..)))),
+            albedo,
+            n_in,
+            ext_ior: F::from_fn(|i| match l[i] {
+                Some(Lobe::Dielectric(_, ext)) => ext,
+                _ => 1.0,
+            }),
+        }
+    }
+
+    /// The lobes of the paths in `active`, path i on material `materials[mat[i]]` at its
+    /// wavelengths: each material present is evaluated once, for all its paths at once.
+    #[inline(always)]
+    pub fn at(
+        materials: &[Material],
+        mat: &F::Arr<u32>,
+        active: F::Mask,
+        lambda: &Spec<F>,
+    ) -> Lobes<F> {
+        let no = F::Mask::splat(false);
+        let mut l = Lobes {
+            diffuse: no,
+            mirror: no,
+            dielectric: no,
+            albedo: Spec::splat(1.0),
+            n_in: Spec::splat(1.0),
+            ext_ior: F::splat(1.0),
+        };
+        let mut left = active;
+        while let Some(first) = left.iter().next() {
+            let id = mat[first];
+            let m = left & F::Mask::from_fn(|i| mat[i] == id);
+            left &= !m;
+            match &materials[id as usize] {
+                Material::Diffuse { reflectance } => {
+                    l.diffuse |= m;
+                    l.albedo.set_where(m, reflectance.eval_w(lambda, m));
                 }
-                Lobe::Mirror(r) => {
-                    kind[i] = 2;
-                    albedo.set_path(i, r);
+                Material::Mirror { reflectance } => {
+                    l.mirror |= m;
+                    l.albedo.set_where(m, reflectance.eval_w(lambda, m));
                 }
-                Lobe::Dielectric(n, ext) => {
-                    kind[i] = 3;
-                    n_in.set_path(i, n);
-                    ext_ior.set(i, ext);
+                Material::FluorescentDiffuse { .. } => {
+                    l.diffuse |= m;
+                    l.albedo.set_where(m, Spec::splat(1.0));
+                }
+                Material::Dielectric { ior, ext_ior } => {
+                    l.dielectric |= m;
+                    l.n_in.set_where(m, ior.eval_w(lambda, m));
+                    l.ext_ior = F::select(m, F::splat(*ext_ior), l.ext_ior);
                 }
             }
         }
-        Lobes {
-            diffuse: F::Mask::from_fn(|i| kind[i] == 1),
-            mirror: F::Mask::from_fn(|i| kind[i] == 2),
-            dielectric: F::Mask::from_fn(|i| kind[i] == 3),
-            albedo,
-            n_in,
-            ext_ior,
-        }
+        l
     }
 
     /// One path's lobe (width 1).

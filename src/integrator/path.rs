@@ -97,11 +97,7 @@ pub struct Paths<F: Float> {
 /// Uniforms for the paths in `m`, drawn path by path (0 elsewhere).
 #[inline(always)]
 fn draw<F: Float>(rng: &mut F::Arr<Pcg32>, m: F::Mask) -> F {
-    let mut v = F::splat(0.0);
-    for i in m.iter() {
-        v.set(i, rng[i].next_f32());
-    }
-    v
+    F::from_fn(|i| if m.get(i) { rng[i].next_f32() } else { 0.0 })
 }
 
 /// The paths in `m`'s count of set lanes.
@@ -640,15 +636,11 @@ impl<F: Float> Paths<F> {
             return m;
         }
         let tracking = opts.method.tracking;
-        let (mut st, mut ss) = (Spec::zero(), Spec::zero());
-        let mut g = F::splat(0.0);
-        for i in m.iter() {
-            let med = &scene.media[self.medium[i] as usize];
-            let lambda = self.lambda.path(i);
-            st.set_path(i, med.sigma_t_hat(lambda));
-            ss.set_path(i, med.sigma_s_hat(lambda));
-            g.set(i, med.phase().g);
-        }
+        let (st, ss) = super::shadow::coefficients(scene, m, &self.medium, &self.lambda);
+        let g = F::from_fn(|i| match m.get(i) {
+            true => scene.media[self.medium[i] as usize].phase().g,
+            false => 0.0,
+        });
         let d = hit.t * self.dir.length();
         let u = draw::<F>(&mut self.rng, m);
         let (collide, t) = tracking::sample_distance(tracking, st.hero(), ss.hero(), d, u);

@@ -123,13 +123,7 @@ impl<F: Float> Shadows<F> {
         let seg = F::select(hit.valid, hit.t, self.tfar);
         let inside = m & F::Mask::from_fn(|i| m.get(i) && self.medium[i] != NO_MEDIUM);
         if inside.any() {
-            let (mut st, mut ss) = (Spec::zero(), Spec::zero());
-            for i in inside.iter() {
-                let med = &scene.media[self.medium[i] as usize];
-                let lambda = self.lambda.path(i);
-                st.set_path(i, med.sigma_t_hat(lambda));
-                ss.set_path(i, med.sigma_s_hat(lambda));
-            }
+            let (st, ss) = coefficients(scene, inside, &self.medium, &self.lambda);
             let len = seg * self.dir.length();
             self.tr
                 .set_where(inside, self.tr * tracking::transmittance(st, len));
@@ -165,4 +159,24 @@ impl<F: Float> Shadows<F> {
         let denom = (self.ratio * (Spec::broadcast(self.p_light) + self.pdf_dir * self.pass)).sum();
         (reached, self.contribution * self.tr / denom)
     }
+}
+
+/// The camera-path coefficients σ̂_t and σ̂_s at the wavelengths `lambda` of the media
+/// `medium` the paths in `m` are in (0 elsewhere).
+#[inline(always)]
+pub(super) fn coefficients<F: Float>(
+    scene: &Scene,
+    m: F::Mask,
+    medium: &F::Arr<u32>,
+    lambda: &Spec<F>,
+) -> (Spec<F>, Spec<F>) {
+    let both: F::Arr<(glam::Vec4, glam::Vec4)> = Lanes::from_fn(|i| match m.get(i) {
+        true => {
+            let med = &scene.media[medium[i] as usize];
+            let l = lambda.path(i);
+            (med.sigma_t_hat(l), med.sigma_s_hat(l))
+        }
+        false => (glam::Vec4::ZERO, glam::Vec4::ZERO),
+    });
+    (Spec::from_fn(|i| both[i].0), Spec::from_fn(|i| both[i].1))
 }

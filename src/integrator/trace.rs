@@ -301,20 +301,21 @@ impl<F: Width> Tracer<F> {
         let mut rng: F::Arr<Pcg32> = Lanes::splat(Pcg32::new(0, 0));
         let mut shift: F::Arr<LazyStream> = Lanes::splat(LazyStream::new(0, 0, 0));
         let mut slot: F::Arr<u32> = Lanes::splat(0);
-        let (mut x, mut y, mut u) = (F::splat(0.5), F::splat(0.5), F::splat(0.0));
+        let mut xyu: F::Arr<[f32; 3]> = Lanes::splat([0.5, 0.5, 0.0]);
         for i in m.iter() {
             let id = ids[i];
             let pixel = id.y as u64 * camera.width as u64 + id.x as u64;
             let mut r = Pcg32::for_sample(seed, pixel, id.index as u64);
             let [jx, jy] = r.next_2d();
-            x.set(i, id.x as f32 + jx);
-            y.set(i, id.y as f32 + jy);
-            u.set(i, r.next_f32());
+            xyu[i] = [id.x as f32 + jx, id.y as f32 + jy, r.next_f32()];
             rng[i] = r;
             // The shift stream: a second, independent stream of the same pixel sample.
             shift[i] = LazyStream::new(seed, pixel, id.index as u64);
             slot[i] = id.slot;
         }
+        let x = F::from_fn(|i| xyu[i][0]);
+        let y = F::from_fn(|i| xyu[i][1]);
+        let u = F::from_fn(|i| xyu[i][2]);
         let dirs = camera.dirs(x, y);
         let lambda = match opts.method.spectral {
             Spectral::Hwss => spectrum::hwss(u),

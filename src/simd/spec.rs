@@ -1,6 +1,6 @@
 //! [`Spec`]: a spectral quantity at the four HWSS wavelengths of W paths.
 
-use super::{Float, Mask};
+use super::{Float, Lanes, Mask};
 use glam::Vec4;
 use std::ops::{Add, AddAssign, Div, DivAssign, Index, IndexMut, Mul, MulAssign, Sub};
 
@@ -56,12 +56,16 @@ impl<F: Float> Spec<F> {
 
     /// Path `i`'s values are `f(i)`.
     #[inline(always)]
-    pub fn from_fn(mut f: impl FnMut(usize) -> Vec4) -> Spec<F> {
-        let mut s = Spec::zero();
-        for i in 0..F::WIDTH {
-            s.set_path(i, f(i));
-        }
-        s
+    pub fn from_fn(f: impl FnMut(usize) -> Vec4) -> Spec<F> {
+        // Whole vectors from an array, not lane by lane: a lane written into a vector in
+        // memory and the vector read back stalls store forwarding.
+        let v: F::Arr<Vec4> = Lanes::from_fn(f);
+        Spec([
+            F::from_fn(|i| v[i].x),
+            F::from_fn(|i| v[i].y),
+            F::from_fn(|i| v[i].z),
+            F::from_fn(|i| v[i].w),
+        ])
     }
 
     /// The hero wavelength's values.

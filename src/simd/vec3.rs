@@ -1,6 +1,6 @@
 //! [`V3`]: a point or direction per path, one [`Float`] per coordinate.
 
-use super::{Float, Mask};
+use super::{Float, Lanes, Mask};
 use glam::Vec3;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
@@ -30,12 +30,14 @@ impl<F: Float> V3<F> {
 
     /// Lane `i` is `f(i)`.
     #[inline(always)]
-    pub fn from_fn(mut f: impl FnMut(usize) -> Vec3) -> V3<F> {
-        let mut v = V3::splat(Vec3::ZERO);
-        for i in 0..F::WIDTH {
-            v.set_path(i, f(i));
-        }
-        v
+    pub fn from_fn(f: impl FnMut(usize) -> Vec3) -> V3<F> {
+        // Whole vectors from an array (see `Spec::from_fn`).
+        let v: F::Arr<Vec3> = Lanes::from_fn(f);
+        V3::new(
+            F::from_fn(|i| v[i].x),
+            F::from_fn(|i| v[i].y),
+            F::from_fn(|i| v[i].z),
+        )
     }
 
     /// Lane `i`.

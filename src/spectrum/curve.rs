@@ -15,6 +15,7 @@
 //! header the value columns are named `"1"`, `"2"`, ….
 
 use crate::error::{Detail, Error};
+use crate::simd::{Float, Lanes, Mask};
 use crate::Result;
 use std::path::Path;
 
@@ -117,6 +118,32 @@ impl Tabulated {
         let t = (lambda - w[i]) / (w[i + 1] - w[i]);
         let (v0, v1) = (self.values[i], self.values[i + 1]);
         v0 + t * (v1 - v0)
+    }
+
+    /// [`Tabulated::eval`] for the W paths of `m` (0 elsewhere): the same arithmetic, the
+    /// interval found path by path.
+    #[inline(always)]
+    pub fn eval_w<F: Float>(&self, lambda: F, m: F::Mask) -> F {
+        let (w, v) = (&self.wavelengths, &self.values);
+        let n = w.len();
+        let inside = m & lambda.ge(F::splat(w[0])) & lambda.le(F::splat(w[n - 1]));
+        if n == 1 || inside.none() {
+            return F::splat(v[0]).masked(inside);
+        }
+        let at: F::Arr<usize> = match self.uniform {
+            Some((start, inv_step)) => {
+                let f = (lambda - F::splat(start)) * F::splat(inv_step);
+                Lanes::from_fn(|i| (f.get(i) as usize).min(n - 2))
+            }
+            None => Lanes::from_fn(|i| {
+                (w.partition_point(|&x| x <= lambda.get(i)).max(1) - 1).min(n - 2)
+            }),
+        };
+        let pick =
+            |of: &[f32], k: usize| F::from_fn(|i| if inside.get(i) { of[at[i] + k] } else { 0.0 });
+        let (w0, w1, v0, v1) = (pick(w, 0), pick(w, 1), pick(v, 0), pick(v, 1));
+        let t = (lambda - w0) / (w1 - w0);
+        (v0 + t * (v1 - v0)).masked(inside)
     }
 
     /// The largest value over `[lo, hi]`: the curve is piecewise linear, so the maximum sits

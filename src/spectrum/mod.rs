@@ -27,6 +27,7 @@ pub mod desc;
 mod wavelengths;
 
 use crate::error::Detail;
+use crate::simd::{Float, Mask, Spec};
 use glam::Vec4;
 
 pub use blackbody::{peak_value as blackbody_peak_value, peak_wavelength, planck};
@@ -156,6 +157,22 @@ impl Spectrum {
                 Vec4::from_array(lambda.to_array().map(|l| gaussian(l, *centre, *fwhm)))
             }
             Spectrum::Scaled(inner, k) => *k * inner.eval4(lambda),
+        }
+    }
+
+    /// The values at the four wavelengths of the W paths of `m` (0 elsewhere): tables
+    /// and constants at once for all paths, the rest path by path through
+    /// [`Spectrum::eval4`] (the same numbers at every width).
+    #[inline(always)]
+    pub fn eval_w<F: Float>(&self, lambda: &Spec<F>, m: F::Mask) -> Spec<F> {
+        match self {
+            Spectrum::Constant(c) => Spec::splat(*c).masked(m),
+            Spectrum::Tabulated(t) => lambda.map(|l| t.eval_w(l, m)),
+            Spectrum::Scaled(inner, k) => inner.eval_w(lambda, m).map(|v| F::splat(*k) * v),
+            _ => Spec::from_fn(|i| match m.get(i) {
+                true => self.eval4(lambda.path(i)),
+                false => Vec4::ZERO,
+            }),
         }
     }
 

@@ -163,7 +163,10 @@ pub fn all_pixels(film: &Film) -> Vec<usize> {
 
 /// The `stokes` binary.
 pub fn stokes() -> std::process::Command {
-    std::process::Command::new(env!("CARGO_BIN_EXE_stokes"))
+    std::process::Command::new(
+        option_env!("CARGO_BIN_EXE_stokes")
+            .expect("the stokes binary (feature `cli`, on by default) is not built"),
+    )
 }
 
 /// Runs a command, returning (success, stdout, stderr).
