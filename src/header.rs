@@ -485,7 +485,7 @@ mod tests {
             .to_string();
         assert_eq!(
             e,
-            "x.exr: stokes:rays: expected one of packet, lockstep, single, found \"lanes\""
+            "x.exr: stokes:rays: expected one of packet, packet8, lockstep, single, found \"lanes\""
         );
         broken.remove("rays");
         let e = RenderHeader::from_attributes(Path::new("x.exr"), &broken)

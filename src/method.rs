@@ -5,7 +5,7 @@
 //! | spectral | `hwss`, `mono` | four hero-driven wavelengths per path, or one |
 //! | shifting | `independent`, `constant` | how the four lanes move at a fluorescent vertex |
 //! | tracking | the scene's default, `classic`, `max`, `fluo-aware` | distance sampling in media |
-//! | rays | `packet`, `lockstep`, `single` | how paths meet Embree |
+//! | rays | `packet`, `packet8`, `lockstep`, `single` | how paths meet Embree |
 //! | dispersion | `split`, `drop` | what a dispersive refraction does to the lanes |
 //!
 //! A method's name is its values joined by `-` in that order, for example
@@ -124,21 +124,24 @@ axis!(Tracking, "tracking", [
 /// How the rays of a render are traced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Rays {
-    /// Four paths travel together through Embree's 4-wide queries (a 2×2 pixel quad for
-    /// camera rays; surviving paths regrouped into full packets at every bounce). The
-    /// default: it measures faster (README, "Packets against single rays").
+    /// Four paths travel together through Embree's 4-wide queries, the estimator running
+    /// on all four at once; a lane whose path ends takes the next pixel sample at once.
+    /// The default: it measures faster (README, "Packets against single rays").
     #[default]
     Packet,
-    /// Like `packet`, but the four paths of a quad stay together and ended paths leave
-    /// their lanes empty (no regrouping; to measure what regrouping buys).
+    /// Like `packet`, with eight paths per Embree query (`rtcIntersect8`).
+    Packet8,
+    /// Like `packet`, but a packet's lanes take new pixel samples only once all four
+    /// paths have ended (as Mitsuba 3 runs its lanes; to measure what refilling buys).
     Lockstep,
     /// One path at a time, depth first, through single-ray queries.
     Single,
 }
 
 axis!(Rays, "rays", [
-    Rays::Packet => "packet": "four paths per Embree query, regrouped after every bounce",
-    Rays::Lockstep => "lockstep": "four paths per Embree query, ended paths leave holes",
+    Rays::Packet => "packet": "four paths per Embree query, a lane refilled as soon as its path ends",
+    Rays::Packet8 => "packet8": "eight paths per Embree query, a lane refilled as soon as its path ends",
+    Rays::Lockstep => "lockstep": "four paths per Embree query, refilled only when all have ended",
     Rays::Single => "single": "one path at a time through single-ray queries",
 ]);
 
@@ -450,7 +453,7 @@ mod tests {
         let e = "lanes".parse::<Rays>().unwrap_err().to_string();
         assert_eq!(
             e,
-            "rays: expected one of packet, lockstep, single, found \"lanes\""
+            "rays: expected one of packet, packet8, lockstep, single, found \"lanes\""
         );
     }
 

@@ -345,7 +345,7 @@ pub struct RenderStats {
     pub rays_per_second: f64,
     /// `hwss` or `mono`.
     pub spectral: &'static str,
-    /// `packet`, `lockstep` or `single`.
+    /// `packet`, `packet8`, `lockstep` or `single`.
     pub ray_mode: &'static str,
     /// The share of packet lanes that carried a ray (packet modes).
     pub packet_lane_occupancy: Option<f64>,

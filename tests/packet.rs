@@ -12,13 +12,13 @@ mod common;
 use common::*;
 use glam::Vec4;
 use stokes::integrator::render::Film;
-use stokes::integrator::trace::{SampleId, Tracer};
+use stokes::integrator::trace::{SampleId, Tracer, Width};
 use stokes::integrator::{radiance, PathOptions, PathStats};
 use stokes::medium::tracking::Tracking;
 use stokes::method::{Axis, Dispersion, Layout, Method, Rays};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
-use stokes::simd::F4;
+use stokes::simd::{F4, F8};
 use stokes::spectrum::SampledWavelengths;
 
 fn opts(w: u32, h: u32, spp: u32, rays: Rays, dispersion: Dispersion) -> TestRender {
@@ -45,7 +45,7 @@ fn modes_agree(name: &str, scene: &mut Scene, w: u32, h: u32, spp: u32, dispersi
     let single = opts(w, h, spp, Rays::Single, dispersion).film(scene);
     let (m, _) = region_mean(&single, &all_pixels(&single));
     assert!(m.iter().sum::<f64>() > 1e-4, "{name}: the image is black");
-    for rays in [Rays::Packet, Rays::Lockstep] {
+    for rays in [Rays::Packet, Rays::Packet8, Rays::Lockstep] {
         for layout in Layout::VALUES {
             let film = opts(w, h, spp, rays, dispersion)
                 .layout(*layout)
@@ -188,66 +188,83 @@ fn masked_lanes_never_contribute_and_a_lone_lane_equals_the_single_ray_path() {
         );
         // Packets whose lanes may only use the lanes of `usable` (one live lane, random
         // holes, full), refilled as paths end or only when all have ended.
-        for usable in [0b0001, 0b0100, 0b1010, 0b1101, 0b1111] {
+        // Packets whose lanes may only use the lanes of `usable` (one live lane, random
+        // holes, full), refilled as paths end or only when all have ended; 4 and 8 wide.
+        let patterns: [(usize, u32); 9] = [
+            (4, 0b0001),
+            (4, 0b0100),
+            (4, 0b1010),
+            (4, 0b1101),
+            (4, 0b1111),
+            (8, 0b0000_0001),
+            (8, 0b1001_0110),
+            (8, 0b1110_1111),
+            (8, 0xff),
+        ];
+        for (width, usable) in patterns {
             for lockstep in [false, true] {
-                let mut tracer = Tracer::<F4>::default();
-                tracer.usable = usable;
-                tracer.lockstep = lockstep;
-                // One slot per path plus a sentinel slot that nothing may write.
-                let mut results = vec![Vec4::ZERO; n as usize + 1];
-                let mut lambdas = vec![Vec4::ZERO; n as usize + 1];
-                let w = scene.camera.width;
-                let mut work = (0..n).map(|i| SampleId {
-                    x: i % w,
-                    y: i / w,
-                    index: 0,
-                    slot: i,
-                });
-                if scene.has_media() {
-                    tracer.run::<true>(
-                        &scene,
-                        &po,
-                        SEED,
-                        &mut work,
-                        &mut results,
-                        &mut lambdas,
-                        &mut stats,
-                    );
-                } else {
-                    tracer.run::<false>(
-                        &scene,
-                        &po,
-                        SEED,
-                        &mut work,
-                        &mut results,
-                        &mut lambdas,
-                        &mut stats,
-                    );
-                }
+                let (results, lambdas, occupancy) = match width {
+                    4 => run_packets::<F4>(&scene, &po, usable, lockstep, n),
+                    _ => run_packets::<F8>(&scene, &po, usable, lockstep, n),
+                };
+                let what = format!("{name}, {width} lanes {usable:b}, lockstep {lockstep}");
                 for k in 0..n as usize {
                     assert!(
-                        results[k].to_array().map(f32::to_bits) == want[k].to_array().map(f32::to_bits),
-                        "{name}, lanes {usable:04b}, lockstep {lockstep}: path {k} gives {} in a packet, {} alone",
+                        results[k].to_array().map(f32::to_bits)
+                            == want[k].to_array().map(f32::to_bits),
+                        "{what}: path {k} gives {} in a packet, {} alone",
                         results[k],
                         want[k]
                     );
                     let (_, lambda, _, _) = sample_inputs(&scene, k as u64);
-                    assert_eq!(lambdas[k], lambda, "{name}: path {k}'s wavelengths");
+                    assert_eq!(lambdas[k], lambda, "{what}: path {k}'s wavelengths");
                 }
                 assert_eq!(
                     results[n as usize],
                     Vec4::ZERO,
-                    "an empty lane wrote a result"
+                    "{what}: an empty lane wrote a result"
                 );
-                let occupancy = tracer.lanes_used as f64 / tracer.lanes_total as f64;
-                let lanes = usable.count_ones() as f64 / 4.0;
+                let lanes = usable.count_ones() as f64 / width as f64;
                 assert!(
                     occupancy <= lanes + 1e-9,
-                    "{name}: lanes outside {usable:04b} were used"
+                    "{what}: lanes outside the pattern were used"
                 );
             }
         }
     }
+}
+
+/// Runs pixel samples 0..n (sample index 0 of pixels 0..n) through a tracer of width `F`
+/// that may use only the lanes of `usable`: the results and wavelengths per sample (plus
+/// a sentinel slot that nothing may write), and the lane occupancy.
+fn run_packets<F: Width>(
+    scene: &Scene,
+    po: &PathOptions,
+    usable: u32,
+    lockstep: bool,
+    n: u32,
+) -> (Vec<Vec4>, Vec<Vec4>, f64) {
+    let mut tracer = Tracer::<F>::default();
+    tracer.usable = usable;
+    tracer.lockstep = lockstep;
+    let mut results = vec![Vec4::ZERO; n as usize + 1];
+    let mut lambdas = vec![Vec4::ZERO; n as usize + 1];
+    let w = scene.camera.width;
+    let mut work = (0..n).map(|i| SampleId {
+        x: i % w,
+        y: i / w,
+        index: 0,
+        slot: i,
+    });
+    let mut stats = PathStats::default();
+    let (r, l) = (&mut results, &mut lambdas);
+    if scene.has_media() {
+        tracer.run::<true>(scene, po, SEED, &mut work, r, l, &mut stats);
+    } else {
+        tracer.run::<false>(scene, po, SEED, &mut work, r, l, &mut stats);
+    }
+    let occupancy = tracer.lanes_used as f64 / tracer.lanes_total as f64;
+    (results, lambdas, occupancy)
 }
 
 /// A glass slab of index `ior` in a white furnace (a box emitting 1 inwards). A lossless

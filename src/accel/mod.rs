@@ -848,6 +848,227 @@ impl Scene {
     }
 }
 
+/// Eight rays in structure-of-arrays form ([`Rays4`] for 8-wide packets).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Rays8 {
+    /// Origins: x, y and z of the eight rays.
+    pub org: [[f32; 8]; 3],
+    /// Directions.
+    pub dir: [[f32; 8]; 3],
+    /// Segment ends.
+    pub tfar: [f32; 8],
+}
+
+/// The closest hits of eight rays ([`Hits4`] for 8-wide packets).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Hits8 {
+    /// Distances along the rays.
+    pub t: [f32; 8],
+    /// Unnormalised geometric normals, per coordinate.
+    pub ng: [[f32; 8]; 3],
+    /// Geometry ids (`u32::MAX` for a miss).
+    pub geom: [u32; 8],
+    /// Triangle indices.
+    pub prim: [u32; 8],
+}
+
+/// Embree's 8-wide ray-hit packet, 32-byte aligned as `rtcIntersect8` requires.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Default)]
+struct RayHit8(sys::RTCRayHit8);
+
+/// The `valid` argument of the 8-wide queries (32-byte aligned).
+#[repr(C, align(32))]
+struct Valid8([i32; 8]);
+
+impl RayHit8 {
+    /// A packet holding the traceable rays of `rays` among `active`, hits cleared, and
+    /// its `valid` mask.
+    fn from_soa(rays: &Rays8, active: [bool; 8]) -> (RayHit8, Valid8) {
+        let mut p = RayHit8::default();
+        let r = &mut p.0.ray;
+        [r.org_x, r.org_y, r.org_z] = rays.org;
+        [r.dir_x, r.dir_y, r.dir_z] = rays.dir;
+        r.tfar = rays.tfar;
+        r.mask = [u32::MAX; 8];
+        r.id = [0, 1, 2, 3, 4, 5, 6, 7];
+        p.0.hit.geomID = [sys::RTC_INVALID_GEOMETRY_ID; 8];
+        let valid = Valid8(std::array::from_fn(|k| {
+            let ok = active[k]
+                && traceable(
+                    [rays.org[0][k], rays.org[1][k], rays.org[2][k]],
+                    [rays.dir[0][k], rays.dir[1][k], rays.dir[2][k]],
+                    0.0,
+                    rays.tfar[k],
+                );
+            if ok {
+                -1
+            } else {
+                0
+            }
+        }));
+        (p, valid)
+    }
+}
+
+impl Scene {
+    /// Closest hits of the active lanes of eight rays (`rtcIntersect8`).
+    #[inline]
+    pub fn intersect8_soa(&self, rays: &Rays8, active: [bool; 8], coherence: Coherence) -> Hits8 {
+        let (mut p, valid) = RayHit8::from_soa(rays, active);
+        #[cfg(embree3)]
+        {
+            let mut ctx = query::Ctx::new(coherence);
+            // SAFETY: the scene is committed; `valid` and `p` are 32-byte aligned (their
+            // types say so) and valid for the call.
+            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut ctx.0, &mut p.0) };
+        }
+        #[cfg(embree4)]
+        {
+            let mut args = query::intersect_args(coherence);
+            // SAFETY: as above, with Embree 4's argument struct.
+            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut p.0, &mut args) };
+        }
+        let h = &p.0.hit;
+        Hits8 {
+            t: p.0.ray.tfar,
+            ng: [h.Ng_x, h.Ng_y, h.Ng_z],
+            geom: std::array::from_fn(|k| {
+                if valid.0[k] != 0 {
+                    h.geomID[k]
+                } else {
+                    u32::MAX
+                }
+            }),
+            prim: h.primID,
+        }
+    }
+
+    /// Which active lanes of eight rays are blocked (`rtcOccluded8`).
+    #[inline]
+    pub fn occluded8_soa(
+        &self,
+        rays: &Rays8,
+        active: [bool; 8],
+        coherence: Coherence,
+    ) -> [bool; 8] {
+        let (mut p, valid) = RayHit8::from_soa(rays, active);
+        #[cfg(embree3)]
+        {
+            let mut ctx = query::Ctx::new(coherence);
+            // SAFETY: the scene is committed; `valid` and the ray part of `p` are 32-byte
+            // aligned and valid for the call.
+            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut ctx.0, &mut p.0.ray) };
+        }
+        #[cfg(embree4)]
+        {
+            let mut args = query::occluded_args(coherence);
+            // SAFETY: as above, with Embree 4's argument struct.
+            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut p.0.ray, &mut args) };
+        }
+        std::array::from_fn(|k| valid.0[k] != 0 && p.0.ray.tfar[k] == f32::NEG_INFINITY)
+    }
+}
+
+/// A stream of rays for Embree 3's stream queries (`rtcIntersect1M`, `rtcOccluded1M`),
+/// which Embree 4 no longer has: the benchmark of the renderer's Embree limit replays
+/// rays through them.
+#[cfg(embree3)]
+#[derive(Default)]
+pub struct RayStream {
+    rays: Vec<sys::RTCRayHit>,
+}
+
+#[cfg(embree3)]
+impl RayStream {
+    /// Replaces the stream's rays (untraceable ones become empty segments, which Embree
+    /// reports as misses).
+    pub fn fill(&mut self, rays: impl Iterator<Item = Ray>) {
+        self.rays.clear();
+        self.rays.extend(rays.map(|r| {
+            let mut rtc = to_rtc_ray(&r);
+            if !r.is_traceable() {
+                rtc = to_rtc_ray(&Ray {
+                    org: Vec3::ZERO,
+                    dir: Vec3::Z,
+                    tnear: 0.0,
+                    tfar: -1.0,
+                });
+            }
+            sys::RTCRayHit {
+                ray: rtc,
+                hit: sys::RTCHit {
+                    geomID: sys::RTC_INVALID_GEOMETRY_ID,
+                    ..Default::default()
+                },
+            }
+        }));
+    }
+
+    /// How many rays the stream holds.
+    pub fn len(&self) -> usize {
+        self.rays.len()
+    }
+
+    /// Whether the stream is empty.
+    pub fn is_empty(&self) -> bool {
+        self.rays.is_empty()
+    }
+
+    /// How many rays hit something (after [`Scene::intersect_stream`]) or are blocked
+    /// (after [`Scene::occluded_stream`]).
+    pub fn count_hits(&self, occlusion: bool) -> usize {
+        self.rays
+            .iter()
+            .filter(|r| match occlusion {
+                true => r.ray.tfar == f32::NEG_INFINITY,
+                false => r.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID,
+            })
+            .count()
+    }
+}
+
+#[cfg(embree3)]
+impl Scene {
+    /// Closest hits of every ray of the stream, `chunk` rays per `rtcIntersect1M` call.
+    pub fn intersect_stream(&self, stream: &mut RayStream, chunk: usize, coherence: Coherence) {
+        let stride = std::mem::size_of::<sys::RTCRayHit>();
+        for part in stream.rays.chunks_mut(chunk.max(1)) {
+            let mut ctx = query::Ctx::new(coherence);
+            // SAFETY: the scene is committed; `part` holds `part.len()` consecutive,
+            // initialised `RTCRayHit`s `stride` bytes apart, valid for the call.
+            unsafe {
+                sys::rtcIntersect1M(
+                    self.raw,
+                    &mut ctx.0,
+                    part.as_mut_ptr(),
+                    part.len() as u32,
+                    stride,
+                )
+            };
+        }
+    }
+
+    /// Occlusion of every ray of the stream, `chunk` rays per `rtcOccluded1M` call.
+    pub fn occluded_stream(&self, stream: &mut RayStream, chunk: usize, coherence: Coherence) {
+        let stride = std::mem::size_of::<sys::RTCRayHit>();
+        for part in stream.rays.chunks_mut(chunk.max(1)) {
+            let mut ctx = query::Ctx::new(coherence);
+            // SAFETY: as for `intersect_stream`; Embree reads and writes only the ray part
+            // (the first field) of each `RTCRayHit`, `stride` bytes apart.
+            unsafe {
+                sys::rtcOccluded1M(
+                    self.raw,
+                    &mut ctx.0,
+                    part.as_mut_ptr().cast::<sys::RTCRay>(),
+                    part.len() as u32,
+                    stride,
+                )
+            };
+        }
+    }
+}
+
 /// Sets flush-to-zero and denormals-are-zero in MXCSR, as Embree asks of every thread
 /// that traces. Call it from rayon's `start_handler` and on the main thread.
 pub fn set_flush_denormals() {

@@ -399,9 +399,7 @@ impl<F: Float> Paths<F> {
         if s.none() {
             return;
         }
-        let lobes = Lobes::from_fn(s, |i| {
-            scene.materials[mat[i] as usize].at(self.lambda.path(i))
-        });
+        let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda);
         self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, ng, wo, stats, shadow);
         self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, ng, wo, children);
     }

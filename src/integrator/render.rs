@@ -4,14 +4,14 @@
 //! pixel's samples are accumulated in order by one thread, so the image is the same
 //! whatever the number of threads.
 
-use super::trace::{SampleId, Tracer, Width};
+use super::trace::{RayLog, SampleId, Tracer, Width};
 use super::{PathOptions, PathStats};
 use crate::color;
 use crate::error::{Detail, Error};
 use crate::method::{Layout, Method, Rays};
 use crate::scene::RenderDesc;
 use crate::scene::Scene;
-use crate::simd::F4;
+use crate::simd::{F4, F8};
 use crate::spectrum;
 use crate::Result;
 use glam::{Vec3, Vec4};
@@ -242,6 +242,8 @@ fn render_pass_with(
         (Rays::Single, true) => pass::<f32, true>,
         (Rays::Packet | Rays::Lockstep, false) => pass::<F4, false>,
         (Rays::Packet | Rays::Lockstep, true) => pass::<F4, true>,
+        (Rays::Packet8, false) => pass::<F8, false>,
+        (Rays::Packet8, true) => pass::<F8, true>,
     };
     let job = Job {
         scene,
@@ -384,6 +386,62 @@ fn pass<F: Width, const MEDIA: bool>(
             },
         )
         .reduce(PathStats::default, add_stats)
+}
+
+/// Every ray a render of samples `[first, first + count)` traces, as `render` would trace
+/// them with `opts` (the same rays in the same packets, on one thread).
+pub fn trace_rays(scene: &Scene, opts: &RenderOptions, first: u32, count: u32) -> RayLog {
+    let path = opts.path_options(scene);
+    match (opts.method.rays, scene.has_media()) {
+        (Rays::Single, false) => log_rays::<f32, false>(scene, opts, &path, first, count),
+        (Rays::Single, true) => log_rays::<f32, true>(scene, opts, &path, first, count),
+        (Rays::Packet | Rays::Lockstep, false) => {
+            log_rays::<F4, false>(scene, opts, &path, first, count)
+        }
+        (Rays::Packet | Rays::Lockstep, true) => {
+            log_rays::<F4, true>(scene, opts, &path, first, count)
+        }
+        (Rays::Packet8, false) => log_rays::<F8, false>(scene, opts, &path, first, count),
+        (Rays::Packet8, true) => log_rays::<F8, true>(scene, opts, &path, first, count),
+    }
+}
+
+/// [`trace_rays`] at width `F`.
+fn log_rays<F: Width, const MEDIA: bool>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    path: &PathOptions,
+    first: u32,
+    count: u32,
+) -> RayLog {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let mut tracer = Tracer::<F>::default();
+    tracer.lockstep = opts.method.rays == Rays::Lockstep;
+    tracer.log = Some(Box::default());
+    let mut stats = PathStats::default();
+    let (mut results, mut lambdas) = (Vec::new(), Vec::new());
+    for y0 in (0..h).step_by(ROWS) {
+        let rows = ROWS.min(h - y0);
+        let mut done = 0;
+        while done < count {
+            let n = CHUNK.min(count - done);
+            results.clear();
+            results.resize(rows * w * n as usize, Vec4::ZERO);
+            lambdas.resize(results.len(), Vec4::ZERO);
+            let mut work = samples(opts.layout, w, rows, y0, first + done, n).into_iter();
+            tracer.run::<MEDIA>(
+                scene,
+                path,
+                opts.seed,
+                &mut work,
+                &mut results,
+                &mut lambdas,
+                &mut stats,
+            );
+            done += n;
+        }
+    }
+    *tracer.log.take().unwrap_or_default()
 }
 
 /// Renders `opts.spp` samples per pixel on a pool of `opts.threads` threads, at the

@@ -10,11 +10,11 @@
 use super::path::Paths;
 use super::shadow::Shadows;
 use super::{PathOptions, PathStats};
-use crate::accel::{self, Coherence, Hits4, Ray, Rays4};
+use crate::accel::{self, Coherence, Ray};
 use crate::method::Spectral;
 use crate::sampler::{LazyStream, Pcg32};
 use crate::scene::Scene;
-use crate::simd::{Float, Lanes, Mask, F4, V3};
+use crate::simd::{Float, Lanes, Mask, F4, F8, V3};
 use crate::spectrum;
 use glam::{Vec3, Vec4};
 
@@ -114,60 +114,62 @@ impl Width for f32 {
     }
 }
 
-/// Four rays in Embree's layout.
-#[inline(always)]
-fn rays4(org: &V3<F4>, dir: &V3<F4>, tfar: F4) -> Rays4 {
-    let a = |f: F4| f.0.to_array();
-    Rays4 {
-        org: [a(org.x), a(org.y), a(org.z)],
-        dir: [a(dir.x), a(dir.y), a(dir.z)],
-        tfar: a(tfar),
-    }
-}
+/// [`Width`] for a packet type: its rays in Embree's SoA layout (`$rays`), queried with
+/// `$intersect`/`$occluded`.
+macro_rules! packet_width {
+    ($f:ident, $rays:ident, $intersect:ident, $occluded:ident) => {
+        impl Width for $f {
+            #[inline(always)]
+            fn intersect(
+                accel: &accel::Scene,
+                org: &V3<$f>,
+                dir: &V3<$f>,
+                tfar: $f,
+                active: <$f as Float>::Mask,
+                coherence: Coherence,
+            ) -> Hits<$f> {
+                let a = |f: $f| f.0.to_array();
+                let rays = accel::$rays {
+                    org: [a(org.x), a(org.y), a(org.z)],
+                    dir: [a(dir.x), a(dir.y), a(dir.z)],
+                    tfar: a(tfar),
+                };
+                let valid = Lanes::from_fn(|k| active.get(k));
+                let h = accel.$intersect(&rays, valid, coherence);
+                let f = |v| $f(v);
+                Hits {
+                    valid: Mask::from_fn(|k| h.geom[k] != u32::MAX),
+                    t: f(h.t.into()),
+                    ng: V3::new(f(h.ng[0].into()), f(h.ng[1].into()), f(h.ng[2].into())),
+                    geom: h.geom,
+                    prim: h.prim,
+                }
+            }
 
-/// The lanes of a mask as Embree's `valid` flags.
-#[inline(always)]
-fn flags4(m: <F4 as Float>::Mask) -> [bool; 4] {
-    std::array::from_fn(|k| m.get(k))
-}
-
-impl Width for F4 {
-    #[inline(always)]
-    fn intersect(
-        accel: &accel::Scene,
-        org: &V3<F4>,
-        dir: &V3<F4>,
-        tfar: F4,
-        active: <F4 as Float>::Mask,
-        coherence: Coherence,
-    ) -> Hits<F4> {
-        let h: Hits4 = accel.intersect4_soa(&rays4(org, dir, tfar), flags4(active), coherence);
-        let f = |a: [f32; 4]| F4(wide::f32x4::new(a));
-        Hits {
-            valid: Mask::from_fn(|k| h.geom[k] != u32::MAX),
-            t: f(h.t),
-            ng: V3::new(f(h.ng[0]), f(h.ng[1]), f(h.ng[2])),
-            geom: h.geom,
-            prim: h.prim,
+            #[inline(always)]
+            fn occluded(
+                accel: &accel::Scene,
+                org: &V3<$f>,
+                dir: &V3<$f>,
+                tfar: $f,
+                active: <$f as Float>::Mask,
+            ) -> <$f as Float>::Mask {
+                let a = |f: $f| f.0.to_array();
+                let rays = accel::$rays {
+                    org: [a(org.x), a(org.y), a(org.z)],
+                    dir: [a(dir.x), a(dir.y), a(dir.z)],
+                    tfar: a(tfar),
+                };
+                let valid = Lanes::from_fn(|k| active.get(k));
+                let o = accel.$occluded(&rays, valid, Coherence::Incoherent);
+                Mask::from_fn(|k| o[k])
+            }
         }
-    }
-
-    #[inline(always)]
-    fn occluded(
-        accel: &accel::Scene,
-        org: &V3<F4>,
-        dir: &V3<F4>,
-        tfar: F4,
-        active: <F4 as Float>::Mask,
-    ) -> <F4 as Float>::Mask {
-        let o = accel.occluded4_soa(
-            &rays4(org, dir, tfar),
-            flags4(active),
-            Coherence::Incoherent,
-        );
-        Mask::from_fn(|k| o[k])
-    }
+    };
 }
+
+packet_width!(F4, Rays4, intersect4_soa, occluded4_soa);
+packet_width!(F8, Rays8, intersect8_soa, occluded8_soa);
 
 /// One pixel sample: pixel (x, y), sample index `index` of that pixel's streams, and the
 /// `slot` its radiance and wavelengths go to.
@@ -181,6 +183,31 @@ pub struct SampleId {
     pub index: u32,
     /// Where the results go.
     pub slot: u32,
+}
+
+/// Every ray a tracer traced, by kind (see `stokes bench limit`).
+#[derive(Debug, Default, Clone)]
+pub struct RayLog {
+    /// Camera rays (closest hit).
+    pub camera: Vec<Ray>,
+    /// Bounce rays after the camera (closest hit).
+    pub bounce: Vec<Ray>,
+    /// Next-event shadow rays in scenes without media (occlusion).
+    pub shadow: Vec<Ray>,
+    /// Shadow-ray segments through media (closest hit).
+    pub segment: Vec<Ray>,
+}
+
+impl RayLog {
+    /// The rays of the lanes `m` of a query.
+    fn push<F: Float>(to: &mut Vec<Ray>, m: F::Mask, org: &V3<F>, dir: &V3<F>, tfar: F) {
+        to.extend(m.iter().map(|i| Ray {
+            org: org.path(i),
+            dir: dir.path(i),
+            tnear: 0.0,
+            tfar: tfar.get(i),
+        }));
+    }
 }
 
 /// The W lanes of paths and their buffers, kept from one batch of samples to the next.
@@ -199,6 +226,8 @@ pub struct Tracer<F: Width> {
     /// The lanes the tracer may fill (bit i for lane i; all by default): a test hook for
     /// packets with empty lanes.
     pub usable: u32,
+    /// Where every traced ray is recorded, if anywhere (`stokes bench limit`).
+    pub log: Option<Box<RayLog>>,
 }
 
 impl<F: Width> Default for Tracer<F> {
@@ -211,6 +240,7 @@ impl<F: Width> Default for Tracer<F> {
             lanes_total: 0,
             lockstep: false,
             usable: u32::MAX,
+            log: None,
         }
     }
 }
@@ -347,6 +377,11 @@ impl<F: Width> Tracer<F> {
             Coherence::Incoherent
         };
         let inf = F::splat(f32::INFINITY);
+        if let Some(log) = self.log.as_deref_mut() {
+            let camera = live & paths.at_camera;
+            RayLog::push(&mut log.camera, camera, &paths.org, &paths.dir, inf);
+            RayLog::push(&mut log.bounce, live & !camera, &paths.org, &paths.dir, inf);
+        }
         let hits = F::intersect(accel, &paths.org, &paths.dir, inf, live, coherence);
         if F::WIDTH > 1 {
             self.lanes_used += live.bits().count_ones() as u64;
@@ -360,6 +395,9 @@ impl<F: Width> Tracer<F> {
         }
         if !MEDIA {
             let s = &*shadows;
+            if let Some(log) = self.log.as_deref_mut() {
+                RayLog::push(&mut log.shadow, s.active, &s.org, &s.dir, s.tfar);
+            }
             let blocked = F::occluded(accel, &s.org, &s.dir, s.tfar, s.active);
             let reached = s.active & !blocked;
             paths.l.set_where(reached, paths.l + s.contribution);
@@ -371,6 +409,10 @@ impl<F: Width> Tracer<F> {
         }
         while shadows.active.any() {
             let m = shadows.active;
+            if let Some(log) = self.log.as_deref_mut() {
+                let s = &*shadows;
+                RayLog::push(&mut log.segment, m, &s.org, &s.dir, s.tfar);
+            }
             let h = F::intersect(
                 accel,
                 &shadows.org,

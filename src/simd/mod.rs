@@ -1,6 +1,6 @@
 //! Lane width: the estimator is written once over [`Float`], a vector of the values of W
-//! camera paths, and runs with W = 1 (`f32`: single rays) or W = 4 ([`F4`]: Embree's
-//! 4-wide packets, SSE2 arithmetic over the four paths).
+//! camera paths, and runs with W = 1 (`f32`: single rays), W = 4 ([`F4`]: Embree's 4-wide
+//! packets, SSE2 arithmetic over the four paths) or W = 8 ([`F8`], 8-wide packets).
 //!
 //! Three kinds of value follow from it:
 //! - [`Float`] itself: one scalar per path (a distance, a pdf, a coordinate);
@@ -23,12 +23,12 @@
 //! widths bit for bit). `min`/`max` follow the SSE rule `a < b ? a : b` at every width
 //! (a NaN in `a` gives `b`).
 
-mod f32x4;
 pub mod math;
+mod paths;
 mod spec;
 mod vec3;
 
-pub use f32x4::{F4, M4};
+pub use paths::{F4, F8, M4, M8};
 pub use spec::Spec;
 pub use vec3::V3;
 
@@ -112,14 +112,14 @@ pub trait Lanes<T>:
     fn from_fn(f: impl FnMut(usize) -> T) -> Self;
 }
 
-impl<T: Copy + Debug + Send + Sync, const N: usize> Lanes<T> for [T; N] {
+impl<T: Copy + Debug + Send + Sync> Lanes<T> for [T; 1] {
     #[inline(always)]
     fn splat(t: T) -> Self {
-        [t; N]
+        [t]
     }
     #[inline(always)]
-    fn from_fn(f: impl FnMut(usize) -> T) -> Self {
-        std::array::from_fn(f)
+    fn from_fn(mut f: impl FnMut(usize) -> T) -> Self {
+        [f(0)]
     }
 }
 
@@ -176,6 +176,8 @@ pub trait Float:
     fn exp2i(n: Self) -> Self;
     /// (m, e) with x = m·2ᵉ, m in [½, 1), for positive normal x.
     fn frexp(self) -> (Self, Self);
+    /// Each lane truncated to an index, for lanes in [0, 2³¹) (table lookups).
+    fn to_index(self) -> Self::Arr<u32>;
 
     /// self < o.
     fn lt(self, o: Self) -> Self::Mask;
@@ -322,6 +324,10 @@ impl Float for f32 {
         let b = self.to_bits();
         let e = ((b >> 23) & 0xff) as i32 - 126;
         (f32::from_bits((b & 0x807f_ffff) | 0x3f00_0000), e as f32)
+    }
+    #[inline(always)]
+    fn to_index(self) -> [u32; 1] {
+        [trunc_i32(self) as u32]
     }
     #[inline(always)]
     fn lt(self, o: f32) -> bool {

@@ -14,8 +14,9 @@
 //! Fields are separated by commas (or, on a line with no comma, by whitespace). Without a
 //! header the value columns are named `"1"`, `"2"`, ….
 
+use super::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::error::{Detail, Error};
-use crate::simd::{Float, Lanes, Mask};
+use crate::simd::{Float, Mask};
 use crate::Result;
 use std::path::Path;
 
@@ -27,7 +28,15 @@ pub struct Tabulated {
     /// `(first wavelength, 1/step)` when the samples are evenly spaced, so that evaluation
     /// is a direct index instead of a binary search (all CIE and most measured tables).
     uniform: Option<(f32, f32)>,
+    /// The curve at every integer nm of [`LAMBDA_MIN`, `LAMBDA_MAX`] when every sample
+    /// lies on an integer nm (most measured tables): the same piecewise-linear function
+    /// (each cell of 1 nm lies within one of its pieces), evaluated with one index and no
+    /// division, the renderer's hot path.
+    nm: Option<Box<[f32]>>,
 }
+
+/// Cells of the integer-nm table.
+const NM_CELLS: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize;
 
 impl Tabulated {
     /// Checks the table: at least one sample, as many values as wavelengths, finite
@@ -71,12 +80,7 @@ impl Tabulated {
                 )));
             }
         }
-        let uniform = uniform_grid(&wavelengths);
-        Ok(Tabulated {
-            wavelengths,
-            values,
-            uniform,
-        })
+        Ok(Tabulated::with_grids(wavelengths, values))
     }
 
     pub fn wavelengths(&self) -> &[f32] {
@@ -87,17 +91,36 @@ impl Tabulated {
         &self.values
     }
 
+    /// A checked table with its evaluation grids.
+    fn with_grids(wavelengths: Vec<f32>, values: Vec<f32>) -> Tabulated {
+        let uniform = uniform_grid(&wavelengths);
+        let mut t = Tabulated {
+            wavelengths,
+            values,
+            uniform,
+            nm: None,
+        };
+        if t.wavelengths.iter().all(|w| w.fract() == 0.0) {
+            let table = (0..=NM_CELLS).map(|k| t.eval_samples(LAMBDA_MIN + k as f32));
+            t.nm = Some(table.collect());
+        }
+        t
+    }
+
     /// The same curve with every value multiplied by `s`.
     pub fn scaled(&self, s: f32) -> Tabulated {
-        Tabulated {
-            wavelengths: self.wavelengths.clone(),
-            values: self.values.iter().map(|v| v * s).collect(),
-            uniform: self.uniform,
-        }
+        let values = self.values.iter().map(|v| v * s).collect();
+        Tabulated::with_grids(self.wavelengths.clone(), values)
     }
 
     /// Linear interpolation between samples, zero outside `[first, last]`.
+    #[inline]
     pub fn eval(&self, lambda: f32) -> f32 {
+        self.eval_w(lambda, true)
+    }
+
+    /// [`Tabulated::eval`] from the samples themselves.
+    fn eval_samples(&self, lambda: f32) -> f32 {
         let w = &self.wavelengths;
         let n = w.len();
         // Written so that NaN also lands here and gives 0.
@@ -120,30 +143,36 @@ impl Tabulated {
         v0 + t * (v1 - v0)
     }
 
-    /// [`Tabulated::eval`] for the W paths of `m` (0 elsewhere): the same arithmetic, the
-    /// interval found path by path.
+    /// [`Tabulated::eval`] for the W paths of `m` (0 elsewhere), all at once on the
+    /// integer-nm table; path by path from the samples where there is none.
     #[inline(always)]
     pub fn eval_w<F: Float>(&self, lambda: F, m: F::Mask) -> F {
-        let (w, v) = (&self.wavelengths, &self.values);
-        let n = w.len();
-        let inside = m & lambda.ge(F::splat(w[0])) & lambda.le(F::splat(w[n - 1]));
-        if n == 1 || inside.none() {
-            return F::splat(v[0]).masked(inside);
-        }
-        let at: F::Arr<usize> = match self.uniform {
-            Some((start, inv_step)) => {
-                let f = (lambda - F::splat(start)) * F::splat(inv_step);
-                Lanes::from_fn(|i| (f.get(i) as usize).min(n - 2))
-            }
-            None => Lanes::from_fn(|i| {
-                (w.partition_point(|&x| x <= lambda.get(i)).max(1) - 1).min(n - 2)
-            }),
+        let w = &self.wavelengths;
+        let inside = m & lambda.ge(F::splat(w[0])) & lambda.le(F::splat(w[w.len() - 1]));
+        let Some(nm) = self.nm.as_deref() else {
+            return F::from_fn(|i| match inside.get(i) {
+                true => self.eval_samples(lambda.get(i)),
+                false => 0.0,
+            });
         };
-        let pick =
-            |of: &[f32], k: usize| F::from_fn(|i| if inside.get(i) { of[at[i] + k] } else { 0.0 });
-        let (w0, w1, v0, v1) = (pick(w, 0), pick(w, 1), pick(v, 0), pick(v, 1));
-        let t = (lambda - w0) / (w1 - w0);
-        (v0 + t * (v1 - v0)).masked(inside)
+        // x is exact (λ and 360 are within a factor of two of x's scale), and so is t:
+        // the same t as from the samples, since every cell is 1 nm wide.
+        let x = lambda - F::splat(LAMBDA_MIN);
+        let on_table = x.ge(F::splat(0.0)) & x.le(F::splat(NM_CELLS as f32));
+        let cell = x
+            .floor()
+            .max(F::splat(0.0))
+            .min(F::splat((NM_CELLS - 1) as f32));
+        let k = cell.to_index();
+        let at = |i: usize, d: usize| nm[k[i] as usize + d];
+        let (v0, v1) = (F::from_fn(|i| at(i, 0)), F::from_fn(|i| at(i, 1)));
+        let t = x - cell;
+        let v = (v0 + t * (v1 - v0)).masked(inside);
+        let off = inside & !on_table;
+        if off.none() {
+            return v;
+        }
+        F::select(off, F::from_fn(|i| self.eval_samples(lambda.get(i))), v)
     }
 
     /// The largest value over `[lo, hi]`: the curve is piecewise linear, so the maximum sits

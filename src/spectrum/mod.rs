@@ -167,7 +167,12 @@ impl Spectrum {
     pub fn eval_w<F: Float>(&self, lambda: &Spec<F>, m: F::Mask) -> Spec<F> {
         match self {
             Spectrum::Constant(c) => Spec::splat(*c).masked(m),
-            Spectrum::Tabulated(t) => lambda.map(|l| t.eval_w(l, m)),
+            Spectrum::Tabulated(t) => Spec([
+                t.eval_w(lambda[0], m),
+                t.eval_w(lambda[1], m),
+                t.eval_w(lambda[2], m),
+                t.eval_w(lambda[3], m),
+            ]),
             Spectrum::Scaled(inner, k) => inner.eval_w(lambda, m).map(|v| F::splat(*k) * v),
             _ => Spec::from_fn(|i| match m.get(i) {
                 true => self.eval4(lambda.path(i)),

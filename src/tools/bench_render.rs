@@ -34,7 +34,7 @@ pub struct RenderBenchOptions {
 /// One measured figure.
 #[derive(Debug, Clone, Serialize)]
 pub struct RenderBenchResult {
-    /// `single`, `packet` or `lockstep`.
+    /// `single`, `packet`, `packet8` or `lockstep`.
     pub rays: &'static str,
     /// Path depth (−1 = unbounded).
     pub max_depth: i32,

@@ -35,7 +35,7 @@ Methods: a method is one value on each of five axes, joined by `-` in this order
   spectral     hwss | mono
   shifting     independent | constant
   tracking     classic | max | fluo-aware
-  rays         packet | lockstep | single
+  rays         packet | packet8 | lockstep | single
   dispersion   split | drop
 for example hwss-independent-fluo-aware-packet-drop (the name the outputs use). In
 --methods a name may list the values in any order and leave axes out: those take the

@@ -5,8 +5,9 @@
 //! - [`reference`]: `stokes reference`, long references that can be resumed;
 //! - [`converge`]: `stokes converge`, error against time and spp for several methods;
 //! - [`chart`]: the log–log charts `converge` draws;
-//! - [`bench_rays`], [`bench_render`]: `stokes bench rays|render`.
+//! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`.
 
+pub mod bench_limit;
 pub mod bench_rays;
 pub mod bench_render;
 pub mod chart;

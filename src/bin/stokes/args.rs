@@ -57,6 +57,9 @@ pub enum BenchCommand {
     /// Path-tracing throughput: packets of four paths against single rays, by depth and
     /// thread count, in one run.
     Render(BenchRenderArgs),
+    /// A render's fraction of its Embree limit: its rays recorded and replayed through
+    /// Embree alone, each kind the fastest way Embree offers.
+    Limit(BenchLimitArgs),
 }
 
 /// A clap parser for the values of a method axis, with their descriptions in `--help`.
@@ -266,7 +269,7 @@ pub struct BenchRaysArgs {
 pub struct BenchRenderArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
-    /// Ray modes to compare, comma-separated (single, packet, lockstep).
+    /// Ray modes to compare, comma-separated (single, packet, packet8, lockstep).
     #[arg(long, value_parser = axis::<Rays>(), value_delimiter = ',', default_value = "single,packet")]
     pub rays: Vec<Rays>,
     /// Path depths, comma-separated; −1 is unbounded (1 = camera rays only).
@@ -293,6 +296,23 @@ pub struct BenchRenderArgs {
     #[arg(long, default_value_t = 2.0)]
     pub seconds: f64,
     /// Runs per figure; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repetitions: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct BenchLimitArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// Target seconds of the timed render (split over the repetitions).
+    #[arg(long, default_value_t = 4.0)]
+    pub seconds: f64,
+    /// Timed runs of the render and of each replay.
     #[arg(long, default_value_t = 3)]
     pub repetitions: usize,
     /// Print one JSON object instead of a table.

@@ -14,7 +14,7 @@ use stokes::integrator::render::{ProgressiveResult, Stopped};
 use stokes::method::{Method, Resolved};
 use stokes::output::{RenderFiles, RenderStats};
 use stokes::scene::Scene;
-use stokes::tools::{bench_rays, bench_render, converge, merge, reference};
+use stokes::tools::{bench_limit, bench_rays, bench_render, converge, merge, reference};
 use stokes::Result;
 
 fn main() -> ExitCode {
@@ -36,6 +36,9 @@ fn main() -> ExitCode {
         Command::Bench {
             what: BenchCommand::Render(a),
         } => ok(cmd_bench_render(&a)),
+        Command::Bench {
+            what: BenchCommand::Limit(a),
+        } => ok(cmd_bench_limit(&a)),
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {}", stokes::one_line(&e.to_string()));
@@ -364,6 +367,29 @@ fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
     match a.json {
         true => println!("{}", json(&report)?),
         false => print!("{}", bench_render::format_table(&report)),
+    }
+    Ok(())
+}
+
+fn cmd_bench_limit(a: &BenchLimitArgs) -> Result<()> {
+    if !(a.seconds.is_finite() && a.seconds > 0.0) {
+        return Err(Error::option("--seconds", "expected a positive number"));
+    }
+    let mut scene = load(&a.scene)?;
+    let render = a.method.options(&mut scene, &a.scene, 1)?;
+    let opts = bench_limit::LimitOptions {
+        render,
+        seconds: a.seconds,
+        repetitions: a.repetitions,
+    };
+    let report = bench_limit::bench_limit(&scene, &opts, &mut |line| {
+        if !a.json {
+            eprintln!("  {line}");
+        }
+    })?;
+    match a.json {
+        true => println!("{}", json(&report)?),
+        false => print!("{}", bench_limit::format_table(&report)),
     }
     Ok(())
 }

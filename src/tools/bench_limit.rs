@@ -1,0 +1,341 @@
+//! `stokes bench limit`: how close a render comes to Embree's own speed on the rays it
+//! traces.
+//!
+//! 1. The render is timed as `stokes render` runs it (median of `repetitions` runs of a
+//!    fixed spp sized to take about `seconds / repetitions`).
+//! 2. The same render is traced once more with every ray recorded, by kind: camera rays,
+//!    bounce rays, next-event shadow rays (occlusion) and shadow-ray segments through
+//!    media (closest hit). Every pixel sample draws from its own random streams, so these
+//!    are the rays the timed render traced.
+//! 3. Each kind is replayed through Embree alone in every way Embree offers — single rays,
+//!    4- and 8-wide packets of consecutive recorded rays (as the render grouped them),
+//!    flagged coherent and incoherent, and (Embree 3) streams of 256 rays — filling
+//!    Embree's ray structures from the recording as a renderer must, and the fastest way
+//!    is kept for each kind.
+//!
+//! The Embree limit is the pixel samples per second of a renderer that did nothing but
+//! trace its rays the fastest way: samples ÷ Σ_kind (fastest replay seconds). The render's
+//! fraction of that limit says how much of its time the shading takes: 1 would mean none.
+//! Render and replays run on the same pool of `threads` threads.
+
+use crate::accel::{Coherence, Ray, Rays4, Rays8, Scene as Accel};
+use crate::integrator::render::{render, trace_rays, RenderOptions};
+use crate::method::Axis;
+use crate::scene::Scene;
+use crate::Result;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::time::Instant;
+
+/// What to measure: the render's settings (`spp` is chosen from `seconds`).
+#[derive(Debug, Clone)]
+pub struct LimitOptions {
+    /// The render (method, depth, threads, seed, layout).
+    pub render: RenderOptions,
+    /// Target seconds of the timed render, split over the repetitions.
+    pub seconds: f64,
+    /// Timed runs of the render and of each replay; the median (render) and the fastest
+    /// (replays) are reported.
+    pub repetitions: usize,
+}
+
+/// One way of tracing one kind of ray.
+#[derive(Debug, Clone, Serialize)]
+pub struct Replay {
+    /// `single`, `packet4`, `packet4-coherent`, `packet8`, `packet8-coherent`,
+    /// `stream256`, `stream256-coherent`.
+    pub method: &'static str,
+    /// Million rays per second (fastest run).
+    pub mrays_per_second: f64,
+}
+
+/// The replays of one kind of ray.
+#[derive(Debug, Clone, Serialize)]
+pub struct KindReport {
+    /// `camera`, `bounce`, `shadow` or `segment`.
+    pub kind: &'static str,
+    /// Rays of this kind in the render.
+    pub rays: u64,
+    /// Every way, as measured.
+    pub replays: Vec<Replay>,
+    /// The fastest way.
+    pub fastest: &'static str,
+    /// Seconds the fastest way takes for all rays of this kind.
+    pub seconds: f64,
+}
+
+/// The benchmark's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct LimitReport {
+    /// Scene name.
+    pub scene: String,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Samples per pixel of the timed render and of the recording.
+    pub spp: u32,
+    /// Threads of the render and the replays.
+    pub threads: usize,
+    /// The render's ray mode.
+    pub rays: &'static str,
+    /// The render's path depth (−1 = unbounded).
+    pub max_depth: i32,
+    /// The render's pixel samples per second (median).
+    pub render_samples_per_second: f64,
+    /// Pixel samples per second if only Embree ran, each kind the fastest way.
+    pub embree_samples_per_second: f64,
+    /// Render ÷ Embree limit.
+    pub fraction: f64,
+    /// Every kind of ray.
+    pub kinds: Vec<KindReport>,
+}
+
+/// Runs the benchmark; `progress` hears a line about each step.
+pub fn bench_limit(
+    scene: &Scene,
+    opts: &LimitOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<LimitReport> {
+    let pool = crate::accel::thread_pool(opts.render.threads)
+        .map_err(|e| crate::Error::Other(format!("cannot start threads: {e}")))?;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let pixels = w as f64 * h as f64;
+    let reps = opts.repetitions.max(1);
+    // Size the timed runs from a warm-up run of 1 spp.
+    let time = |spp: u32| -> Result<f64> {
+        let o = RenderOptions {
+            spp,
+            ..opts.render.clone()
+        };
+        let r = pool.install(|| render(scene, &o, &|| {}))?;
+        Ok(r.seconds)
+    };
+    let warm = time(1)?;
+    let spp = ((opts.seconds / reps as f64 / warm.max(1e-6)).round() as u32).clamp(1, 4096);
+    let mut runs = Vec::with_capacity(reps);
+    for _ in 0..reps {
+        runs.push(pixels * spp as f64 / time(spp)?);
+    }
+    runs.sort_by(f64::total_cmp);
+    let render_rate = runs[runs.len() / 2];
+    progress(&format!(
+        "render: {spp} spp, {:.3} M samples/s",
+        render_rate / 1e6
+    ));
+
+    let log = trace_rays(scene, &opts.render, 0, spp);
+    let accel = &scene.accel;
+    let kinds: [(&'static str, &Vec<Ray>, bool); 4] = [
+        ("camera", &log.camera, false),
+        ("bounce", &log.bounce, false),
+        ("shadow", &log.shadow, true),
+        ("segment", &log.segment, false),
+    ];
+    let mut reports = Vec::new();
+    for (kind, rays, occlusion) in kinds {
+        if rays.is_empty() {
+            continue;
+        }
+        let mut replays = Vec::new();
+        let mut fastest = ("", f64::INFINITY);
+        for (method, run) in methods() {
+            let mut best = f64::INFINITY;
+            for _ in 0..reps {
+                let start = Instant::now();
+                pool.install(|| run(accel, rays, occlusion));
+                best = best.min(start.elapsed().as_secs_f64());
+            }
+            let rate = rays.len() as f64 / best;
+            progress(&format!("{kind}: {method} {:.2} M rays/s", rate / 1e6));
+            replays.push(Replay {
+                method,
+                mrays_per_second: rate / 1e6,
+            });
+            if best < fastest.1 {
+                fastest = (method, best);
+            }
+        }
+        reports.push(KindReport {
+            kind,
+            rays: rays.len() as u64,
+            replays,
+            fastest: fastest.0,
+            seconds: fastest.1,
+        });
+    }
+    let embree: f64 = reports.iter().map(|k| k.seconds).sum();
+    let embree_rate = pixels * spp as f64 / embree;
+    Ok(LimitReport {
+        scene: scene.name(),
+        width: w,
+        height: h,
+        spp,
+        threads: pool.current_num_threads(),
+        rays: opts.render.method.rays.name(),
+        max_depth: opts.render.max_depth,
+        render_samples_per_second: render_rate,
+        embree_samples_per_second: embree_rate,
+        fraction: render_rate / embree_rate,
+        kinds: reports,
+    })
+}
+
+/// A way of tracing a list of rays (closest hit, or occlusion when the flag says so).
+type Method = fn(&Accel, &[Ray], bool);
+
+/// Every way Embree offers here.
+fn methods() -> Vec<(&'static str, Method)> {
+    let mut m: Vec<(&'static str, Method)> = vec![
+        ("single", |a, r, occ| chunks(r, 256, |c| single(a, c, occ))),
+        ("packet4", |a, r, occ| {
+            chunks(r, 256, |c| packets4(a, c, occ, Coherence::Incoherent))
+        }),
+        ("packet4-coherent", |a, r, occ| {
+            chunks(r, 256, |c| packets4(a, c, occ, Coherence::Coherent))
+        }),
+        ("packet8", |a, r, occ| {
+            chunks(r, 256, |c| packets8(a, c, occ, Coherence::Incoherent))
+        }),
+        ("packet8-coherent", |a, r, occ| {
+            chunks(r, 256, |c| packets8(a, c, occ, Coherence::Coherent))
+        }),
+    ];
+    #[cfg(embree3)]
+    {
+        m.push(("stream256", |a, r, occ| {
+            chunks(r, 256, |c| stream(a, c, occ, Coherence::Incoherent))
+        }));
+        m.push(("stream256-coherent", |a, r, occ| {
+            chunks(r, 256, |c| stream(a, c, occ, Coherence::Coherent))
+        }));
+    }
+    m
+}
+
+/// Runs `f` over chunks of `n` rays in parallel (in the current pool).
+fn chunks(rays: &[Ray], n: usize, f: impl Fn(&[Ray]) -> u64 + Sync + Send) {
+    let hits: u64 = rays.par_chunks(n).map(f).sum();
+    black_box(hits);
+}
+
+fn single(a: &Accel, rays: &[Ray], occlusion: bool) -> u64 {
+    rays.iter()
+        .map(|r| match occlusion {
+            true => a.occluded1(r) as u64,
+            false => a.intersect1(r).is_some() as u64,
+        })
+        .sum()
+}
+
+fn packets4(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
+    rays.chunks(4)
+        .map(|p| {
+            let mut soa = Rays4::default();
+            let mut active = [false; 4];
+            for (k, r) in p.iter().enumerate() {
+                for d in 0..3 {
+                    soa.org[d][k] = r.org[d];
+                    soa.dir[d][k] = r.dir[d];
+                }
+                soa.tfar[k] = r.tfar;
+                active[k] = true;
+            }
+            match occlusion {
+                true => a
+                    .occluded4_soa(&soa, active, c)
+                    .iter()
+                    .filter(|&&o| o)
+                    .count() as u64,
+                false => a
+                    .intersect4_soa(&soa, active, c)
+                    .geom
+                    .iter()
+                    .filter(|&&g| g != u32::MAX)
+                    .count() as u64,
+            }
+        })
+        .sum()
+}
+
+fn packets8(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
+    rays.chunks(8)
+        .map(|p| {
+            let mut soa = Rays8::default();
+            let mut active = [false; 8];
+            for (k, r) in p.iter().enumerate() {
+                for d in 0..3 {
+                    soa.org[d][k] = r.org[d];
+                    soa.dir[d][k] = r.dir[d];
+                }
+                soa.tfar[k] = r.tfar;
+                active[k] = true;
+            }
+            match occlusion {
+                true => a
+                    .occluded8_soa(&soa, active, c)
+                    .iter()
+                    .filter(|&&o| o)
+                    .count() as u64,
+                false => a
+                    .intersect8_soa(&soa, active, c)
+                    .geom
+                    .iter()
+                    .filter(|&&g| g != u32::MAX)
+                    .count() as u64,
+            }
+        })
+        .sum()
+}
+
+#[cfg(embree3)]
+fn stream(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
+    let mut s = crate::accel::RayStream::default();
+    s.fill(rays.iter().copied());
+    match occlusion {
+        true => a.occluded_stream(&mut s, rays.len(), c),
+        false => a.intersect_stream(&mut s, rays.len(), c),
+    }
+    s.count_hits(occlusion) as u64
+}
+
+/// The report as a table.
+pub fn format_table(r: &LimitReport) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{}: {}x{}, {} spp, depth {}, --rays {}, {} thread(s)",
+        r.scene, r.width, r.height, r.spp, r.max_depth, r.rays, r.threads
+    );
+    let _ = writeln!(
+        out,
+        "{:>8} {:>10} {:>20} {:>10}  M rays/s by method",
+        "kind", "rays", "fastest", "seconds"
+    );
+    for k in &r.kinds {
+        let all: Vec<String> = k
+            .replays
+            .iter()
+            .map(|p| format!("{} {:.2}", p.method, p.mrays_per_second))
+            .collect();
+        let _ = writeln!(
+            out,
+            "{:>8} {:>10} {:>20} {:>10.4}  {}",
+            k.kind,
+            k.rays,
+            k.fastest,
+            k.seconds,
+            all.join(", ")
+        );
+    }
+    let _ = writeln!(
+        out,
+        "render {:.3} M samples/s; Embree alone {:.3} M samples/s; fraction of the Embree limit {:.2}",
+        r.render_samples_per_second / 1e6,
+        r.embree_samples_per_second / 1e6,
+        r.fraction
+    );
+    out
+}
