@@ -500,41 +500,59 @@ impl<F: Float> Paths<F> {
         if m.none() {
             return;
         }
+        let geom = &hit.geom;
+        let medium_of = |q: F::Mask, wi: &V3<F>, paths: &Self| {
+            // Leaving the surface towards wi: which medium is the shadow ray in?
+            let same_side = (ng.dot(*wi) * ng.dot(wo)).gt(F::splat(0.0));
+            let mut medium = paths.medium;
+            for i in (q & !same_side).iter() {
+                medium[i] = medium_after_crossing(scene, geom[i], ng.path(i), wi.path(i));
+            }
+            medium
+        };
+        let eval = |wi: &V3<F>| lobes.eval(ng, wo, *wi);
+        self.next_event::<MEDIA>(scene, m, u, (p, ng), eval, medium_of, stats, shadow);
+    }
+
+    /// Next-event estimation for the paths in `m` at the points `p` (pushed off the
+    /// surfaces of normals `n` by shadow rays; `n = 0` in a medium): one point on a light
+    /// each from `u`, weighed against direction sampling with `f_pdf(wi)` (value·|cos| or
+    /// phase, and the per-lane pdf of sampling wi); the shadow rays, leaving in the media
+    /// `medium_of` says, go to `shadow`. One estimator for surfaces and media.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn next_event<const MEDIA: bool>(
+        &mut self,
+        scene: &Scene,
+        m: F::Mask,
+        u: [F; 3],
+        (p, n): (V3<F>, V3<F>),
+        f_pdf: impl FnOnce(&V3<F>) -> (Spec<F>, Spec<F>),
+        medium_of: impl FnOnce(F::Mask, &V3<F>, &Self) -> F::Arr<u32>,
+        stats: &mut PathStats,
+        shadow: &mut Shadows<F>,
+    ) {
         let ls = scene.lights.sample_towards_w(m, p, u);
         let q = m & ls.valid;
         if q.none() {
             return;
         }
-        let (f_cos, pdf_bsdf) = lobes.eval(ng, wo, ls.wi);
-        let q = q & !f_cos.is_zero();
+        let (f, pdf_dir) = f_pdf(&ls.wi);
+        let q = q & !f.is_zero();
         if q.none() {
             return;
         }
         let le = self.emission(q, &ls.emitter, &scene.lights);
-        let (org, dir, tfar) = shadow_ray(p, ng, ls.p, ls.n, ls.wi);
+        let ray = shadow_ray(p, n, ls.p, ls.n, ls.wi);
         stats.rays += count(q);
+        let base = self.beta * f * le;
         if MEDIA {
-            // Leaving the surface towards wi: which medium is the shadow ray in?
-            let same_side = (ng.dot(ls.wi) * ng.dot(wo)).gt(F::splat(0.0));
-            let mut medium = self.medium;
-            for i in (q & !same_side).iter() {
-                medium[i] = medium_after_crossing(scene, hit.geom[i], ng.path(i), ls.wi.path(i));
-            }
-            let base = self.beta * f_cos * le;
+            let medium = medium_of(q, &ls.wi, self);
             let (lambda, ratio) = (&self.lambda, &self.ratio);
-            shadow.push_media(
-                q,
-                (org, dir, tfar),
-                base,
-                &medium,
-                lambda,
-                ratio,
-                ls.pdf,
-                pdf_bsdf,
-            );
+            shadow.push_media(q, ray, base, &medium, lambda, ratio, ls.pdf, pdf_dir);
         } else {
-            let denom = (self.ratio * (Spec::broadcast(ls.pdf) + pdf_bsdf)).sum();
-            shadow.push(q, (org, dir, tfar), self.beta * f_cos * le / denom);
+            let denom = (self.ratio * (Spec::broadcast(ls.pdf) + pdf_dir)).sum();
+            shadow.push(q, ray, base / denom);
         }
     }
 
@@ -708,28 +726,13 @@ impl<F: Float> Paths<F> {
             draw::<F>(&mut self.rng, m),
             draw::<F>(&mut self.rng, m),
         ];
-        let ls = scene.lights.sample_towards_w(m, p, u);
-        let q = m & ls.valid;
-        if q.any() {
-            let le = self.emission(q, &ls.emitter, &scene.lights);
-            let f = phase.eval_dirs(wo, ls.wi);
-            let nowhere = V3::splat(Vec3::ZERO);
-            let (org, dir, tfar) = shadow_ray(p, nowhere, ls.p, ls.n, ls.wi);
-            stats.rays += count(q);
-            let base = self.beta * le * f;
-            let (lambda, ratio) = (&self.lambda, &self.ratio);
-            let pdf_dir = Spec::broadcast(f);
-            shadow.push_media(
-                q,
-                (org, dir, tfar),
-                base,
-                &self.medium,
-                lambda,
-                ratio,
-                ls.pdf,
-                pdf_dir,
-            );
-        }
+        let f_pdf = |wi: &V3<F>| {
+            let f = Spec::broadcast(phase.eval_dirs(wo, *wi));
+            (f, f)
+        };
+        let medium_of = |_: F::Mask, _: &V3<F>, paths: &Self| paths.medium;
+        let at = (p, V3::splat(Vec3::ZERO));
+        self.next_event::<true>(scene, m, u, at, f_pdf, medium_of, stats, shadow);
         let u = [draw::<F>(&mut self.rng, m), draw::<F>(&mut self.rng, m)];
         let (wi, pdf_dir) = phase.sample(wo, u);
         let ok = m & pdf_dir.gt(zero);
