@@ -1,20 +1,21 @@
 //! The `stokes` command line: parse the options ([`args`]), call the library, print.
 
 mod args;
+mod bench;
 mod progress;
 
 use args::*;
 use progress::{install_interrupt_handler, pass_logger, progress_bar, STOP};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use stokes::error::{Detail, Error};
+use stokes::error::Error;
 use stokes::header::{RenderHeader, SampleRange};
-use stokes::integrator::render::{render_progressive, PassDone, Progressive, RenderOptions};
+use stokes::integrator::render::{render_progressive, PassDone, Progressive};
 use stokes::integrator::render::{ProgressiveResult, Stopped};
 use stokes::method::{Method, Resolved};
 use stokes::output::{RenderFiles, RenderStats};
 use stokes::scene::Scene;
-use stokes::tools::{bench_limit, bench_rays, bench_render, converge, merge, reference};
+use stokes::tools::{converge, merge, reference};
 use stokes::Result;
 
 fn main() -> ExitCode {
@@ -30,15 +31,7 @@ fn main() -> ExitCode {
         Command::Converge(a) => ok(cmd_converge(&a, matches.subcommand_matches("converge"))),
         Command::Info { scene } => ok(load(&scene).map(|s| print!("{}", s.summary()))),
         Command::Merge(a) => ok(cmd_merge(&a)),
-        Command::Bench {
-            what: BenchCommand::Rays(a),
-        } => ok(cmd_bench_rays(&a)),
-        Command::Bench {
-            what: BenchCommand::Render(a),
-        } => ok(cmd_bench_render(&a)),
-        Command::Bench {
-            what: BenchCommand::Limit(a),
-        } => ok(cmd_bench_limit(&a)),
+        Command::Bench { what } => ok(bench::run(&what)),
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {}", stokes::one_line(&e.to_string()));
@@ -310,107 +303,4 @@ fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<
     let d = job.out_dir.display();
     eprintln!("→ {d}/convergence.csv, {d}/error-vs-time.svg/.png, {d}/error-vs-spp.svg/.png");
     Ok(())
-}
-
-fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
-    let expected = |option: &str, expected: &str, found: String| {
-        Err(Error::option(
-            option,
-            Detail::Expected {
-                expected: expected.into(),
-                found,
-            },
-        ))
-    };
-    if let Some(&d) = a.max_depth.iter().find(|&&d| d == 0 || d < -1) {
-        return expected("--max-depth", "−1 or depths ≥ 1", d.to_string());
-    }
-    if a.rays.is_empty() || a.max_depth.is_empty() || a.threads.is_empty() {
-        // Three options at once: no one of them to name.
-        return Err(Error::Other(
-            "--rays, --max-depth and --threads each need at least one value".into(),
-        ));
-    }
-    if !(a.seconds.is_finite() && a.seconds > 0.0) {
-        return expected("--seconds", "a positive number", a.seconds.to_string());
-    }
-    let mut scene = load(&a.scene)?;
-    let (width, height) = a.res.unwrap_or((scene.camera.width, scene.camera.height));
-    scene.set_resolution(width, height);
-    let method = Method {
-        spectral: a.spectral,
-        dispersion: a.dispersion,
-        ..Method::default()
-    };
-    let opts = bench_render::RenderBenchOptions {
-        base: RenderOptions {
-            spp: 1,
-            seed: scene.render.seed,
-            method,
-            ..RenderOptions::default()
-        },
-        rays: a.rays.clone(),
-        depths: a.max_depth.clone(),
-        threads: a.threads.clone(),
-        seconds: a.seconds,
-        repetitions: a.repetitions,
-    };
-    let report = bench_render::bench_render(&scene, &opts, &mut |r| {
-        if !a.json {
-            let rate = r.samples_per_second / 1e6;
-            eprintln!(
-                "  {} threads, depth {}, {}: {rate:.3} M samples/s",
-                r.threads, r.max_depth, r.rays
-            );
-        }
-    })?;
-    match a.json {
-        true => println!("{}", json(&report)?),
-        false => print!("{}", bench_render::format_table(&report)),
-    }
-    Ok(())
-}
-
-fn cmd_bench_limit(a: &BenchLimitArgs) -> Result<()> {
-    if !(a.seconds.is_finite() && a.seconds > 0.0) {
-        return Err(Error::option("--seconds", "expected a positive number"));
-    }
-    let mut scene = load(&a.scene)?;
-    let render = a.method.options(&mut scene, &a.scene, 1)?;
-    let opts = bench_limit::LimitOptions {
-        render,
-        seconds: a.seconds,
-        repetitions: a.repetitions,
-    };
-    let report = bench_limit::bench_limit(&scene, &opts, &mut |line| {
-        if !a.json {
-            eprintln!("  {line}");
-        }
-    })?;
-    match a.json {
-        true => println!("{}", json(&report)?),
-        false => print!("{}", bench_limit::format_table(&report)),
-    }
-    Ok(())
-}
-
-fn cmd_bench_rays(a: &BenchRaysArgs) -> Result<()> {
-    let scene = load(&a.scene)?;
-    let opts = bench_rays::RayBenchOptions {
-        seconds: a.seconds,
-        threads: a.threads,
-        repetitions: a.repetitions.max(1),
-    };
-    let report = bench_rays::bench_scene(&scene, &opts);
-    match a.json {
-        true => println!("{}", json(&report)?),
-        false => print!("{}", bench_rays::format_table(&report)),
-    }
-    Ok(())
-}
-
-/// A benchmark report as one line of JSON (plain numbers and names: serialising does not
-/// fail, and would have no input to blame).
-fn json(report: &impl serde::Serialize) -> Result<String> {
-    serde_json::to_string(report).map_err(|e| Error::Other(e.to_string()))
 }
