@@ -56,7 +56,7 @@ while IFS='|' read -r group files tests harness; do
     start=$SECONDS
     mkdir -p "mutants.out/$group"
     shard=()
-    [ -n "${MUTANTS_SHARD:-}" ] && shard=(--shard "$MUTANTS_SHARD")
+    [ -n "${MUTANTS_SHARD:-}" ] && shard=(--shard "$MUTANTS_SHARD" --sharding round-robin)
     cargo mutants --profile mutants --no-default-features --no-shuffle --minimum-test-timeout 60 \
         --jobs "${MUTANTS_JOBS:-2}" "${shard[@]}" "${EXCLUDE[@]}" "${args[@]}" \
         -o "mutants.out/$group" -- "${extra[@]}" || status=$?
