@@ -602,3 +602,117 @@ fn direction_chi_square_rejects_a_pdf_off_by_ten_percent() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// What an emitter emits (the integrator's emission and next-event terms use these).
+
+fn emitter(radiance: Spectrum, scale: f32, two_sided: bool) -> Emitter {
+    Emitter {
+        radiance,
+        scale,
+        two_sided,
+    }
+}
+
+#[test]
+fn an_emitter_emits_from_its_front_only_unless_two_sided() {
+    let one = emitter(Spectrum::Constant(1.0), 1.0, false);
+    let two = emitter(Spectrum::Constant(1.0), 1.0, true);
+    // cos is the cosine between the front normal and the direction of emission.
+    assert!(one.emits_towards(0.5) && one.emits_towards(1e-30));
+    assert!(!one.emits_towards(-0.5) && !one.emits_towards(-1e-30));
+    assert!(two.emits_towards(0.5) && two.emits_towards(-0.5) && two.emits_towards(-1e-30));
+    // Exactly grazing: no emission from either side.
+    assert!(!one.emits_towards(0.0) && !two.emits_towards(0.0));
+    assert!(!one.emits_towards(f32::NAN) && !two.emits_towards(f32::NAN));
+}
+
+#[test]
+fn spectral_radiance_and_its_mean_carry_the_scale() {
+    // A ramp from 0 at 360 nm to 470 at 830 nm: mean 235 over the range.
+    let ramp = Tabulated::new(vec![LAMBDA_MIN, LAMBDA_MAX], vec![0.0, 470.0]).unwrap();
+    let e = emitter(Spectrum::Tabulated(ramp.clone()), 3.0, false);
+    let lambda = glam::Vec4::new(400.0, 500.0, 600.0, 700.0);
+    let want = lambda.to_array().map(|l| 3.0 * ramp.eval(l));
+    let got = e.spectral_radiance(lambda).to_array();
+    for k in 0..4 {
+        assert!(
+            (got[k] - want[k]).abs() <= 1e-5 * want[k],
+            "{got:?} vs {want:?}"
+        );
+    }
+    let mean = e.mean_radiance();
+    assert!((mean - 3.0 * 235.0).abs() < 1e-3 * 705.0, "mean {mean}");
+    let flat = emitter(Spectrum::Constant(2.0), 0.5, true);
+    assert!(
+        (flat.mean_radiance() - 1.0).abs() < 1e-5,
+        "{}",
+        flat.mean_radiance()
+    );
+}
+
+#[test]
+fn black_lights_are_chosen_uniformly_and_keep_a_finite_density() {
+    let mut lights = Lights::default();
+    let quad = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+    for g in 0..2 {
+        let black = emitter(Spectrum::Constant(0.0), 1.0, false);
+        lights.add(g, black, &quad, &[[0, 1, 2]]).unwrap();
+    }
+    lights.finish();
+    for g in 0..2 {
+        // Each triangle: probability 1/2 over area 1.
+        assert_eq!(lights.pdf_area(g, 0), 0.5, "geometry {g}");
+    }
+    let s = lights
+        .sample([0.75, 0.3, 0.6])
+        .expect("a black light is still sampled");
+    assert!(s.p.is_finite() && s.pdf_area == 0.5, "{s:?}");
+}
+
+/// Scene warnings for a quad light of the given emission.
+fn light_warnings(emission: &str) -> Vec<String> {
+    let text = format!(
+        r#"
+[camera]
+position = [0, 1, -3]
+look_at = [0, 1, 0]
+fov = 40
+resolution = [8, 8]
+
+[materials.white]
+type = "diffuse"
+reflectance = 0.5
+
+[[shapes]]
+type = "quad"
+origin = [-1, 0, -1]
+edge_u = [2, 0, 0]
+edge_v = [0, 0, 2]
+material = "white"
+
+[[shapes]]
+type = "quad"
+origin = [-0.5, 2, -0.5]
+edge_u = [1, 0, 0]
+edge_v = [0, 0, 1]
+emission = {emission}
+"#
+    );
+    common::scene_from(&text).warnings
+}
+
+#[test]
+fn bands_narrower_than_a_nanometre_are_warned_of() {
+    let narrow = |e: &str| light_warnings(e).iter().any(|w| w.contains("fwhm"));
+    assert!(narrow("{ radiance = { narrow_band = 500, fwhm = 0.5 } }"));
+    assert!(narrow(
+        "{ radiance = { narrow_band = 500, fwhm = 0.5, scale = 2 } }"
+    ));
+    assert!(!narrow("{ radiance = { narrow_band = 500, fwhm = 10 } }"));
+    assert!(!narrow(
+        "{ radiance = { narrow_band = 500, fwhm = 1.5, scale = 2 } }"
+    ));
+    assert!(!narrow("{ radiance = 1.0 }"));
+    assert!(!narrow("{ radiance = \"D65\", scale = 0.01 }"));
+}

@@ -97,6 +97,14 @@ fn packet_and_single_rays_give_the_same_image() {
         4,
         Dispersion::Drop,
     );
+    modes_agree(
+        "fluorescent-slab",
+        &mut scene_file("fluorescent-slab.toml"),
+        24,
+        24,
+        4,
+        Dispersion::Drop,
+    );
     // Splits: children wait for a free lane.
     for d in [Dispersion::Drop, Dispersion::Split] {
         modes_agree(
