@@ -8,7 +8,7 @@
 //! build are not timed.
 
 use crate::integrator::render::{render, RenderOptions};
-use crate::method::{Axis, Method, Rays};
+use crate::method::{Axis, Layout, Method, Rays};
 use crate::scene::Scene;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -19,8 +19,8 @@ pub struct RenderBenchOptions {
     /// The render settings besides rays, depth, threads and spp (the method's other axes);
     /// the resolution is the scene camera's.
     pub base: RenderOptions,
-    /// The ray modes to compare.
-    pub rays: Vec<Rays>,
+    /// The ray modes to compare, each with a packet layout (ignored for single rays).
+    pub modes: Vec<(Rays, Layout)>,
     /// Path depths (−1 = unbounded).
     pub depths: Vec<i32>,
     /// Thread counts (0 = one per core).
@@ -36,6 +36,8 @@ pub struct RenderBenchOptions {
 pub struct RenderBenchResult {
     /// `single`, `packet`, `packet8` or `lockstep`.
     pub rays: &'static str,
+    /// `quad` or `pixel` (packet modes).
+    pub layout: &'static str,
     /// Path depth (−1 = unbounded).
     pub max_depth: i32,
     /// Worker threads.
@@ -90,7 +92,9 @@ pub fn bench_render(
         };
         let pixels = scene.camera.pixel_count() as f64;
         for &depth in &opts.depths {
-            let run = |rays: Rays, spp: u32| -> crate::Result<(f64, f64, Option<f64>)> {
+            let run = |(rays, layout): (Rays, Layout),
+                       spp: u32|
+             -> crate::Result<(f64, f64, Option<f64>)> {
                 let o = RenderOptions {
                     spp,
                     max_depth: depth,
@@ -99,6 +103,7 @@ pub fn bench_render(
                         rays,
                         ..opts.base.method
                     },
+                    layout,
                     ..opts.base.clone()
                 };
                 let r = render(scene, &o, &|| {})?;
@@ -110,24 +115,26 @@ pub fn bench_render(
                 ))
             };
             // Size the runs from a 1-spp warm-up of the first mode.
-            let (rate, _, _) = run(opts.rays[0], 1)?;
+            let (rate, _, _) = run(opts.modes[0], 1)?;
             let spp = ((rate * opts.seconds / reps as f64) / pixels)
                 .round()
                 .max(1.0) as u32;
-            let mut rates = vec![Vec::new(); opts.rays.len()];
-            let mut rays_per_sample = vec![0.0; opts.rays.len()];
-            let mut occupancy = vec![None; opts.rays.len()];
+            let n = opts.modes.len();
+            let mut rates = vec![Vec::new(); n];
+            let mut rays_per_sample = vec![0.0; n];
+            let mut occupancy = vec![None; n];
             for _ in 0..reps {
-                for (m, &rays) in opts.rays.iter().enumerate() {
-                    let (r, rps, occ) = run(rays, spp)?;
+                for (m, &mode) in opts.modes.iter().enumerate() {
+                    let (r, rps, occ) = run(mode, spp)?;
                     rates[m].push(r);
                     rays_per_sample[m] = rps;
                     occupancy[m] = occ;
                 }
             }
-            for (m, &rays) in opts.rays.iter().enumerate() {
+            for (m, &(rays, layout)) in opts.modes.iter().enumerate() {
                 let res = RenderBenchResult {
                     rays: rays.name(),
+                    layout: layout.name(),
                     max_depth: depth,
                     threads: threads_used,
                     samples_per_second: median(std::mem::take(&mut rates[m])),
@@ -158,7 +165,7 @@ pub fn format_table(report: &RenderBenchReport) -> String {
     );
     let _ = writeln!(
         s,
-        "{:>7} {:>9} {:>9} {:>11} {:>11} {:>9} {:>9}",
+        "{:>7} {:>9} {:>14} {:>11} {:>11} {:>9} {:>9}",
         "threads", "max depth", "rays", "M samples/s", "rays/sample", "lanes", "vs single"
     );
     for r in &report.results {
@@ -179,12 +186,16 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         let lanes = r
             .occupancy
             .map_or_else(|| "-".to_string(), |o| format!("{:.0}%", 100.0 * o));
+        let mode = match (r.rays, r.layout) {
+            ("single", _) | (_, "quad") => r.rays.to_string(),
+            (rays, layout) => format!("{rays}/{layout}"),
+        };
         let _ = writeln!(
             s,
-            "{:>7} {:>9} {:>9} {:>11.3} {:>11.2} {:>9} {:>9}",
+            "{:>7} {:>9} {:>14} {:>11.3} {:>11.2} {:>9} {:>9}",
             r.threads,
             depth,
-            r.rays,
+            mode,
             r.samples_per_second / 1e6,
             r.rays_per_sample,
             lanes,

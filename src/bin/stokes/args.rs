@@ -272,6 +272,9 @@ pub struct BenchRenderArgs {
     /// Ray modes to compare, comma-separated (single, packet, packet8, lockstep).
     #[arg(long, value_parser = axis::<Rays>(), value_delimiter = ',', default_value = "single,packet")]
     pub rays: Vec<Rays>,
+    /// Packet layouts to compare, comma-separated (quad, pixel); single rays run once.
+    #[arg(long, value_parser = axis::<Layout>(), value_delimiter = ',', default_value = "quad")]
+    pub layouts: Vec<Layout>,
     /// Path depths, comma-separated; −1 is unbounded (1 = camera rays only).
     #[arg(
         long,

@@ -5,7 +5,7 @@ use super::args::{BenchCommand, BenchLimitArgs, BenchRaysArgs, BenchRenderArgs};
 use super::load;
 use stokes::error::{Detail, Error};
 use stokes::integrator::render::RenderOptions;
-use stokes::method::Method;
+use stokes::method::{Layout, Method, Rays};
 use stokes::tools::{bench_limit, bench_rays, bench_render};
 use stokes::Result;
 
@@ -31,10 +31,10 @@ fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
     if let Some(&d) = a.max_depth.iter().find(|&&d| d == 0 || d < -1) {
         return expected("--max-depth", "−1 or depths ≥ 1", d.to_string());
     }
-    if a.rays.is_empty() || a.max_depth.is_empty() || a.threads.is_empty() {
-        // Three options at once: no one of them to name.
+    if a.rays.is_empty() || a.layouts.is_empty() || a.max_depth.is_empty() || a.threads.is_empty() {
+        // Several options at once: no one of them to name.
         return Err(Error::Other(
-            "--rays, --max-depth and --threads each need at least one value".into(),
+            "--rays, --layouts, --max-depth and --threads each need at least one value".into(),
         ));
     }
     if !(a.seconds.is_finite() && a.seconds > 0.0) {
@@ -55,7 +55,7 @@ fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
             method,
             ..RenderOptions::default()
         },
-        rays: a.rays.clone(),
+        modes: modes(&a.rays, &a.layouts),
         depths: a.max_depth.clone(),
         threads: a.threads.clone(),
         seconds: a.seconds,
@@ -65,8 +65,8 @@ fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
         if !a.json {
             let rate = r.samples_per_second / 1e6;
             eprintln!(
-                "  {} threads, depth {}, {}: {rate:.3} M samples/s",
-                r.threads, r.max_depth, r.rays
+                "  {} threads, depth {}, {} ({}): {rate:.3} M samples/s",
+                r.threads, r.max_depth, r.rays, r.layout
             );
         }
     })?;
@@ -75,6 +75,18 @@ fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
         false => print!("{}", bench_render::format_table(&report)),
     }
     Ok(())
+}
+
+/// Every ray mode with every layout, single rays once (their layout changes nothing).
+fn modes(rays: &[Rays], layouts: &[Layout]) -> Vec<(Rays, Layout)> {
+    let mut out = Vec::new();
+    for &r in rays {
+        match r {
+            Rays::Single => out.push((r, Layout::default())),
+            _ => out.extend(layouts.iter().map(|&l| (r, l))),
+        }
+    }
+    out
 }
 
 fn cmd_bench_limit(a: &BenchLimitArgs) -> Result<()> {

@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# The figures of the README section "Packets against single rays", each comparison taken
+# in one run (these machines are shared and noisy), and the CPU they came from:
+#
+#   benches/packets.sh [OUT_DIR]          # default out/packets; about 25 minutes on 2 cores
+#   BASE=c5eae78 benches/packets.sh       # also instruction counts of that commit's binary
+#
+# 1. stokes bench render: packet, packet8, lockstep and single rays, both layouts, depths
+#    1, 3 and unbounded, 1 and 2 threads, on the Cornell box (512²) and the 100k-triangle
+#    sphere (1024²).
+# 2. stokes bench limit: the Cornell box's fraction of its Embree limit, packet and single.
+# 3. The Cornell box at 256², 64 spp, depth 6, 2 threads against Mitsuba 3
+#    (benches/mitsuba/cbox.py, scalar_spectral and llvm_ad_spectral), alternating, three
+#    rounds; skipped if `import mitsuba` fails.
+# 4. The fluorescent surfaces scene against the same scene with every dye removed (each
+#    fluorescent_diffuse made a diffuse of its reflectance), packet rays, 2 threads.
+# 5. Instructions per pixel sample (callgrind, independent of machine load) for the
+#    Cornell box and the fluorescent volume, packet and single, with this binary and, if
+#    BASE is set, with that commit's (built in a temporary worktree).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-out/packets}
+mkdir -p "$out"
+cargo build --release -q
+B=target/release/stokes
+grep -m1 'model name' /proc/cpuinfo | tee "$out/cpu.txt"
+
+echo "== 1. bench render"
+$B bench render scenes/cornell-box.toml --rays single,packet,packet8,lockstep --layouts quad,pixel \
+    --max-depth 1,3,-1 --threads 1,2 --seconds 3 --repetitions 5 | tee "$out/render-cornell-box.txt"
+$B bench render scenes/sphere-100k.toml --rays single,packet,packet8 --layouts quad,pixel \
+    --max-depth 1,3,-1 --threads 1,2 --seconds 3 --repetitions 5 | tee "$out/render-sphere-100k.txt"
+
+echo "== 2. bench limit"
+for rays in packet single; do
+    $B bench limit scenes/cornell-box.toml --res 256x256 --threads 1 --rays "$rays" --seconds 4 \
+        | tee "$out/limit-cornell-box-$rays.txt"
+done
+
+echo "== 3. against Mitsuba 3 (256², 64 spp, depth 6, 2 threads)"
+if python3 -c 'import mitsuba' 2>/dev/null; then
+    for round in 1 2 3; do
+        for rays in packet single; do
+            $B render scenes/cornell-box.toml --res 256x256 --spp 64 --max-depth 6 --threads 2 \
+                --rays "$rays" -o "$out/cbox-$rays.exr" --stats-json "$out/cbox-$rays-$round.json" 2>/dev/null
+            python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print('stokes $rays', round(d['samples_per_second']/1e6, 3), 'M samples/s')" "$out/cbox-$rays-$round.json"
+        done
+        for v in llvm_ad_spectral scalar_spectral; do
+            python3 benches/mitsuba/cbox.py --variant $v --res 256 --spp 64 --threads 2 --repeat 2 2>/dev/null | tail -1 \
+                | python3 -c "import json,sys; d=json.loads(sys.stdin.read()); print('mitsuba $v', round(d['msamples_per_s'], 3), 'M samples/s')"
+        done
+    done | tee "$out/mitsuba.txt"
+else
+    echo "mitsuba not installed (pip install mitsuba; apt-get install libllvm19): skipped" | tee "$out/mitsuba.txt"
+fi
+
+echo "== 4. fluorescence's cost"
+sed -e 's/type = "fluorescent_diffuse"/type = "diffuse"/' -e '/^dye = /d' -e '/^matrix = /d' \
+    scenes/fluorescent-surfaces.toml > scenes/.no-dyes.toml
+trap 'rm -f scenes/.no-dyes.toml' EXIT
+for s in scenes/fluorescent-surfaces.toml scenes/.no-dyes.toml; do
+    $B bench render "$s" --rays packet --max-depth -1 --threads 2 --res 256x256 --seconds 4 --repetitions 5 \
+        | tail -1 | sed "s|^|$s |"
+done | tee "$out/fluorescence-cost.txt"
+
+echo "== 5. instructions per sample (callgrind)"
+per_sample() { # binary scene rays
+    local a b
+    a=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$1" render "$2" --res 64x64 --spp 1 \
+        --threads 1 --rays "$3" -o "$out/cg.exr" 2>&1 | awk '/Collected/{print $4}')
+    b=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$1" render "$2" --res 64x64 --spp 9 \
+        --threads 1 --rays "$3" -o "$out/cg.exr" 2>&1 | awk '/Collected/{print $4}')
+    echo $(((b - a) / (8 * 64 * 64)))
+}
+bins=("$B")
+if [ -n "${BASE:-}" ]; then
+    tmp=$(mktemp -d)
+    git worktree add -q "$tmp/src" "$BASE"
+    (cd "$tmp/src" && CARGO_TARGET_DIR="$tmp/target" cargo build --release -q)
+    bins+=("$tmp/target/release/stokes")
+fi
+for bin in "${bins[@]}"; do
+    for s in scenes/cornell-box.toml scenes/fluorescent-volume-440nm.toml; do
+        for rays in packet single; do
+            echo "$bin $s $rays: $(per_sample "$bin" "$s" "$rays") instructions per sample"
+        done
+    done
+done | tee "$out/instructions.txt"
+if [ -n "${BASE:-}" ]; then git worktree remove --force "$tmp/src"; rm -rf "$tmp"; fi
