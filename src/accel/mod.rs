@@ -578,16 +578,48 @@ impl RayHit4 {
     }
 }
 
-/// Four rays in structure-of-arrays form, as the estimator holds them: origins and
-/// directions per coordinate, `t` in `[0, tfar]`.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Rays4 {
-    /// Origins: x, y and z of the four rays.
-    pub org: [[f32; 4]; 3],
+/// N rays in structure-of-arrays form, as the estimator holds them: origins and
+/// directions per coordinate, `t` in `[0, tfar]` (`Rays4`, `Rays8` for the packet queries).
+#[derive(Debug, Clone, Copy)]
+pub struct RaysN<const N: usize> {
+    /// Origins: x, y and z of the N rays.
+    pub org: [[f32; N]; 3],
     /// Directions.
-    pub dir: [[f32; 4]; 3],
+    pub dir: [[f32; N]; 3],
     /// Segment ends.
-    pub tfar: [f32; 4],
+    pub tfar: [f32; N],
+}
+
+/// Four rays for `intersect4`/`occluded4`.
+pub type Rays4 = RaysN<4>;
+/// Eight rays for `intersect8`/`occluded8`.
+pub type Rays8 = RaysN<8>;
+
+impl<const N: usize> Default for RaysN<N> {
+    fn default() -> RaysN<N> {
+        RaysN {
+            org: [[0.0; N]; 3],
+            dir: [[0.0; N]; 3],
+            tfar: [0.0; N],
+        }
+    }
+}
+
+impl<const N: usize> RaysN<N> {
+    /// The first N of `rays` (their `tnear` taken as 0), and the lanes that hold one.
+    pub fn from_rays(rays: &[Ray]) -> (RaysN<N>, [bool; N]) {
+        let mut soa = RaysN::default();
+        let mut active = [false; N];
+        for (k, r) in rays.iter().take(N).enumerate() {
+            for d in 0..3 {
+                soa.org[d][k] = r.org[d];
+                soa.dir[d][k] = r.dir[d];
+            }
+            soa.tfar[k] = r.tfar;
+            active[k] = true;
+        }
+        (soa, active)
+    }
 }
 
 /// The closest hits of four rays in structure-of-arrays form; `geom[k]` is `u32::MAX`
@@ -846,17 +878,6 @@ impl Scene {
         self.occluded4(&mut packet, active, coherence);
         std::array::from_fn(|k| active[k] && packet.occluded(k))
     }
-}
-
-/// Eight rays in structure-of-arrays form ([`Rays4`] for 8-wide packets).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Rays8 {
-    /// Origins: x, y and z of the eight rays.
-    pub org: [[f32; 8]; 3],
-    /// Directions.
-    pub dir: [[f32; 8]; 3],
-    /// Segment ends.
-    pub tfar: [f32; 8],
 }
 
 /// The closest hits of eight rays ([`Hits4`] for 8-wide packets).

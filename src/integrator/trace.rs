@@ -55,6 +55,17 @@ pub trait Width: Float {
     ) -> Self::Mask;
 }
 
+/// One path's ray over `[0, tfar]`.
+#[inline(always)]
+fn ray1(org: &V3<f32>, dir: &V3<f32>, tfar: f32) -> Ray {
+    Ray {
+        org: (*org).into(),
+        dir: (*dir).into(),
+        tnear: 0.0,
+        tfar,
+    }
+}
+
 impl Width for f32 {
     #[inline(always)]
     fn intersect(
@@ -65,16 +76,9 @@ impl Width for f32 {
         active: bool,
         _: Coherence,
     ) -> Hits<f32> {
-        let hit = if active {
-            let ray = Ray {
-                org: (*org).into(),
-                dir: (*dir).into(),
-                tnear: 0.0,
-                tfar,
-            };
-            accel.intersect1(&ray)
-        } else {
-            None
+        let hit = match active {
+            true => accel.intersect1(&ray1(org, dir, tfar)),
+            false => None,
         };
         match hit {
             Some(h) => Hits {
@@ -102,15 +106,7 @@ impl Width for f32 {
         tfar: f32,
         active: bool,
     ) -> bool {
-        active && {
-            let ray = Ray {
-                org: (*org).into(),
-                dir: (*dir).into(),
-                tnear: 0.0,
-                tfar,
-            };
-            accel.occluded1(&ray)
-        }
+        active && accel.occluded1(&ray1(org, dir, tfar))
     }
 }
 

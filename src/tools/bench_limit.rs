@@ -18,7 +18,7 @@
 //! fraction of that limit says how much of its time the shading takes: 1 would mean none.
 //! Render and replays run on the same pool of `threads` threads.
 
-use crate::accel::{Coherence, Ray, Rays4, Rays8, Scene as Accel};
+use crate::accel::{Coherence, Ray, RaysN, Scene as Accel};
 use crate::integrator::render::{render, trace_rays, RenderOptions};
 use crate::method::Axis;
 use crate::scene::Scene;
@@ -230,64 +230,39 @@ fn single(a: &Accel, rays: &[Ray], occlusion: bool) -> u64 {
         .sum()
 }
 
-fn packets4(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
-    rays.chunks(4)
+/// Consecutive groups of N rays through one N-wide query each; `query` answers how many
+/// of a packet's rays hit (or are blocked).
+fn packets<const N: usize>(rays: &[Ray], query: impl Fn(&RaysN<N>, [bool; N]) -> usize) -> u64 {
+    rays.chunks(N)
         .map(|p| {
-            let mut soa = Rays4::default();
-            let mut active = [false; 4];
-            for (k, r) in p.iter().enumerate() {
-                for d in 0..3 {
-                    soa.org[d][k] = r.org[d];
-                    soa.dir[d][k] = r.dir[d];
-                }
-                soa.tfar[k] = r.tfar;
-                active[k] = true;
-            }
-            match occlusion {
-                true => a
-                    .occluded4_soa(&soa, active, c)
-                    .iter()
-                    .filter(|&&o| o)
-                    .count() as u64,
-                false => a
-                    .intersect4_soa(&soa, active, c)
-                    .geom
-                    .iter()
-                    .filter(|&&g| g != u32::MAX)
-                    .count() as u64,
-            }
+            let (soa, active) = RaysN::<N>::from_rays(p);
+            query(&soa, active) as u64
         })
         .sum()
 }
 
+fn packets4(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
+    packets::<4>(rays, |s, m| match occlusion {
+        true => a.occluded4_soa(s, m, c).iter().filter(|&&o| o).count(),
+        false => a
+            .intersect4_soa(s, m, c)
+            .geom
+            .iter()
+            .filter(|&&g| g != u32::MAX)
+            .count(),
+    })
+}
+
 fn packets8(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
-    rays.chunks(8)
-        .map(|p| {
-            let mut soa = Rays8::default();
-            let mut active = [false; 8];
-            for (k, r) in p.iter().enumerate() {
-                for d in 0..3 {
-                    soa.org[d][k] = r.org[d];
-                    soa.dir[d][k] = r.dir[d];
-                }
-                soa.tfar[k] = r.tfar;
-                active[k] = true;
-            }
-            match occlusion {
-                true => a
-                    .occluded8_soa(&soa, active, c)
-                    .iter()
-                    .filter(|&&o| o)
-                    .count() as u64,
-                false => a
-                    .intersect8_soa(&soa, active, c)
-                    .geom
-                    .iter()
-                    .filter(|&&g| g != u32::MAX)
-                    .count() as u64,
-            }
-        })
-        .sum()
+    packets::<8>(rays, |s, m| match occlusion {
+        true => a.occluded8_soa(s, m, c).iter().filter(|&&o| o).count(),
+        false => a
+            .intersect8_soa(s, m, c)
+            .geom
+            .iter()
+            .filter(|&&g| g != u32::MAX)
+            .count(),
+    })
 }
 
 #[cfg(embree3)]
