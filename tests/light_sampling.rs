@@ -716,3 +716,47 @@ fn bands_narrower_than_a_nanometre_are_warned_of() {
     assert!(!narrow("{ radiance = 1.0 }"));
     assert!(!narrow("{ radiance = \"D65\", scale = 0.01 }"));
 }
+
+#[test]
+fn a_scene_without_lights_is_warned_of() {
+    let dark = |w: &[String]| w.iter().any(|w| w.contains("has no light"));
+    assert!(!dark(&light_warnings("{ radiance = 1.0 }")));
+    let text = r#"
+[camera]
+position = [0, 1, -3]
+look_at = [0, 1, 0]
+fov = 40
+resolution = [8, 8]
+
+[materials.white]
+type = "diffuse"
+reflectance = 0.5
+
+[[shapes]]
+type = "quad"
+origin = [-1, 0, -1]
+edge_u = [2, 0, 0]
+edge_v = [0, 0, 2]
+material = "white"
+"#;
+    assert!(dark(&common::scene_from(text).warnings));
+}
+
+#[test]
+fn a_selection_sample_at_the_top_of_the_range_picks_the_last_triangle() {
+    let mut lights = Lights::default();
+    let tri = |x: f32| [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 0.0, 1.0]];
+    for g in 0..3 {
+        let e = emitter(Spectrum::Constant(1.0 + g as f32), 1.0, false);
+        lights
+            .add(g, e, &tri(3.0 * g as f32), &[[0, 1, 2]])
+            .unwrap();
+    }
+    lights.finish();
+    // Uniforms lie in [0, 1); a selection sample of exactly 1 (rounding) must still land
+    // on a triangle, the last one.
+    let s = lights.sample([1.0, 0.5, 0.5]).expect("a light");
+    assert!(s.p.x >= 6.0 && s.emitter == 2, "{s:?}");
+    let s = lights.sample([0.0, 0.5, 0.5]).expect("a light");
+    assert!(s.p.x < 1.0 && s.emitter == 0, "{s:?}");
+}
