@@ -516,6 +516,14 @@ mod tests {
         };
         assert!((bk7.eval(587.6) - 1.5168).abs() < 1e-3);
         assert!(bk7.eval(450.0) > bk7.eval(650.0));
+        assert!(bk7.is_dispersive());
+        let cauchy = Ior::Cauchy { a: 1.5, b: 4200.0 };
+        assert!((cauchy.eval(420.0) - 1.5238095).abs() < 1e-6);
+        assert!(cauchy.is_dispersive() && !Ior::Constant(1.5).is_dispersive());
+        let l = Vec4::new(400.0, 500.0, 600.0, 700.0);
+        assert_eq!(Ior::Constant(1.33).eval4(l), Vec4::splat(1.33));
+        let want = l.to_array().map(|x| bk7.eval(x));
+        assert_eq!(bk7.eval4(l).to_array(), want);
     }
 
     #[test]
