@@ -54,6 +54,7 @@ mod import;
 pub use import::ImportReport;
 
 use crate::error::{Detail, Error, Key, KeyError};
+use crate::simd::Float;
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_RANGE};
 use glam::Vec4;
 use std::path::Path;
@@ -174,16 +175,6 @@ fn check_stokes_shift(
         ));
     }
     Ok(())
-}
-
-/// The diagonal clamped to be non-negative (NaN gives 0).
-#[inline]
-fn nonneg(v: f32) -> f32 {
-    if v > 0.0 {
-        v
-    } else {
-        0.0
-    }
 }
 
 impl Reradiation {
@@ -444,13 +435,14 @@ impl Reradiation {
     /// The diagonal D(λ) (ordinary reflectance), clamped to be non-negative.
     #[inline]
     pub fn d(&self, lambda: f32) -> f32 {
-        nonneg(self.diagonal.eval(lambda))
+        // The diagonal clamped to be non-negative (NaN gives 0).
+        self.diagonal.eval(lambda).nonneg()
     }
 
     /// D at the four lanes.
     #[inline]
     pub fn d4(&self, lambda: Vec4) -> Vec4 {
-        Vec4::from_array(self.diagonal.eval4(lambda).to_array().map(nonneg))
+        Vec4::from_array(self.diagonal.eval4(lambda).to_array().map(Float::nonneg))
     }
 
     /// The off-diagonal density F(λi, λo) in nm⁻¹ (0 unless cell(λi) < cell(λo)).

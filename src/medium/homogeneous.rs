@@ -37,19 +37,14 @@
 use super::phase::HenyeyGreenstein;
 use crate::error::Detail;
 use crate::fluoro::{Reradiation, ShiftSample};
+use crate::simd::Float;
 use crate::spectrum::Spectrum;
 use glam::Vec4;
 
-/// A coefficient as used here: negative and NaN count as 0.
-#[inline]
-fn nonneg(x: f32) -> f32 {
-    x.max(0.0)
-}
-
-/// [`nonneg`] per lane.
+/// A coefficient per lane as used here: negative and NaN count as 0.
 #[inline]
 fn nonneg4(v: Vec4) -> Vec4 {
-    Vec4::from_array(v.to_array().map(nonneg))
+    Vec4::from_array(v.to_array().map(Float::nonneg))
 }
 
 /// The fluorescent part of a medium.
@@ -94,7 +89,7 @@ impl Homogeneous {
         } else {
             albedo.clamp(0.0, 1.0)
         };
-        let st = nonneg(sigma_t);
+        let st = sigma_t.nonneg();
         Homogeneous::new(
             Spectrum::Constant((1.0 - a) * st),
             Spectrum::Constant(a * st),
@@ -230,7 +225,7 @@ impl Homogeneous {
                     ..s
                 }),
             None => {
-                let s = nonneg(self.sigma_s.eval(lambda_o));
+                let s = self.sigma_s.eval(lambda_o).nonneg();
                 (s > 0.0 && s.is_finite()).then_some(ShiftSample {
                     lambda_i: lambda_o,
                     kept: true,
@@ -249,7 +244,7 @@ impl Homogeneous {
         match &self.dye {
             Some(d) => d.shift.pdf_input(lambda_i, lambda_o, kept),
             None => {
-                let s = nonneg(self.sigma_s.eval(lambda_o));
+                let s = self.sigma_s.eval(lambda_o).nonneg();
                 if kept && s > 0.0 && s.is_finite() {
                     1.0
                 } else {
@@ -265,7 +260,7 @@ impl Homogeneous {
     pub fn shift_value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
         match &self.dye {
             Some(d) => d.shift.value(lambda_i, lambda_o, kept) * d.scale,
-            None if kept => nonneg(self.sigma_s.eval(lambda_o)),
+            None if kept => self.sigma_s.eval(lambda_o).nonneg(),
             None => 0.0,
         }
     }

@@ -75,7 +75,7 @@ pub enum DistanceSample {
 /// A coefficient as used here: negative and NaN count as 0.
 #[inline(always)]
 fn coeff<F: Float>(x: F) -> F {
-    x.max(F::splat(0.0))
+    x.nonneg()
 }
 
 /// ∫₀ᵗ e^{−σ s} ds = (1 − e^{−σ t})/σ, → t as σt → 0 (exact at σ = 0).

@@ -204,6 +204,11 @@ pub trait Float:
     fn masked(self, m: Self::Mask) -> Self {
         Self::select(m, self, Self::splat(0.0))
     }
+    /// max(x, 0), NaN giving 0: how coefficients and reflectances are read.
+    #[inline(always)]
+    fn nonneg(self) -> Self {
+        self.max(Self::splat(0.0))
+    }
     /// x·x.
     #[inline(always)]
     fn sq(self) -> Self {
