@@ -2,9 +2,10 @@
 //! modes — packets of four paths against single rays — at several path depths and thread
 //! counts, measured in one run so that their ratios are taken under the same machine load.
 //!
-//! For every (threads, depth) the modes run in turn, `repetitions` times round-robin, each
-//! run a fixed number of samples per pixel sized from a first untimed warm-up run to take
-//! about `seconds / repetitions`; the median rate is reported. Scene loading and the BVH
+//! For every depth, each (threads, mode) runs in turn, `repetitions` times round-robin,
+//! each run a fixed number of samples per pixel sized from a first untimed warm-up run to
+//! take about `seconds / repetitions` at the first thread count; the median rate is
+//! reported, with its ratio to single rays and to the fewest threads. Scene loading and the BVH
 //! build are not timed.
 
 use crate::integrator::render::{render, RenderOptions};
@@ -77,82 +78,93 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Runs the benchmark; `progress` hears about each figure as it is measured.
+///
+/// For each depth, the repetitions are the outer loop and every (threads, mode) runs once
+/// in each, so that thread-count ratios, not only mode ratios, are taken under the same
+/// load. Every run of a depth draws the same number of samples per pixel, sized from an
+/// untimed warm-up of the first mode at the first thread count.
 pub fn bench_render(
     scene: &Scene,
     opts: &RenderBenchOptions,
     progress: &mut dyn FnMut(&RenderBenchResult),
 ) -> crate::Result<RenderBenchReport> {
     let reps = opts.repetitions.max(1);
-    let mut results = Vec::new();
-    for &threads in &opts.threads {
-        let threads_used = if threads == 0 {
-            std::thread::available_parallelism().map_or(1, |n| n.get())
-        } else {
-            threads
+    let pixels = scene.camera.pixel_count() as f64;
+    let run = |threads: usize,
+               depth: i32,
+               (rays, layout): (Rays, Layout),
+               spp: u32|
+     -> crate::Result<(f64, f64, Option<f64>)> {
+        let o = RenderOptions {
+            spp,
+            max_depth: depth,
+            threads,
+            method: Method {
+                rays,
+                ..opts.base.method
+            },
+            layout,
+            ..opts.base.clone()
         };
-        let pixels = scene.camera.pixel_count() as f64;
-        for &depth in &opts.depths {
-            let run = |(rays, layout): (Rays, Layout),
-                       spp: u32|
-             -> crate::Result<(f64, f64, Option<f64>)> {
-                let o = RenderOptions {
-                    spp,
-                    max_depth: depth,
-                    threads,
-                    method: Method {
-                        rays,
-                        ..opts.base.method
-                    },
-                    layout,
-                    ..opts.base.clone()
-                };
-                let r = render(scene, &o, &|| {})?;
-                let samples = pixels * spp as f64;
-                Ok((
-                    samples / r.seconds,
-                    r.stats.rays as f64 / samples,
-                    r.stats.occupancy(),
-                ))
-            };
-            // Size the runs from a 1-spp warm-up of the first mode.
-            let (rate, _, _) = run(opts.modes[0], 1)?;
-            let spp = ((rate * opts.seconds / reps as f64) / pixels)
-                .round()
-                .max(1.0) as u32;
-            let n = opts.modes.len();
-            let mut rates = vec![Vec::new(); n];
-            let mut rays_per_sample = vec![0.0; n];
-            let mut occupancy = vec![None; n];
-            for _ in 0..reps {
-                for (m, &mode) in opts.modes.iter().enumerate() {
-                    let (r, rps, occ) = run(mode, spp)?;
-                    rates[m].push(r);
-                    rays_per_sample[m] = rps;
-                    occupancy[m] = occ;
-                }
-            }
-            for (m, &(rays, layout)) in opts.modes.iter().enumerate() {
-                let res = RenderBenchResult {
-                    rays: rays.name(),
-                    layout: layout.name(),
-                    max_depth: depth,
-                    threads: threads_used,
-                    samples_per_second: median(std::mem::take(&mut rates[m])),
-                    spp,
-                    rays_per_sample: rays_per_sample[m],
-                    occupancy: occupancy[m],
-                };
-                progress(&res);
-                results.push(res);
+        let r = render(scene, &o, &|| {})?;
+        let samples = pixels * spp as f64;
+        Ok((
+            samples / r.seconds,
+            r.stats.rays as f64 / samples,
+            r.stats.occupancy(),
+        ))
+    };
+    let combos: Vec<(usize, (Rays, Layout))> = opts
+        .threads
+        .iter()
+        .flat_map(|&t| opts.modes.iter().map(move |&m| (t, m)))
+        .collect();
+    let mut results = Vec::new();
+    for &depth in &opts.depths {
+        let (rate, _, _) = run(opts.threads[0], depth, opts.modes[0], 1)?;
+        let spp = ((rate * opts.seconds / reps as f64) / pixels)
+            .round()
+            .max(1.0) as u32;
+        let mut rates = vec![Vec::new(); combos.len()];
+        let mut seen = vec![(0.0, None); combos.len()];
+        for _ in 0..reps {
+            for (c, &(threads, mode)) in combos.iter().enumerate() {
+                let (r, rps, occ) = run(threads, depth, mode, spp)?;
+                rates[c].push(r);
+                seen[c] = (rps, occ);
             }
         }
+        for (c, &(threads, (rays, layout))) in combos.iter().enumerate() {
+            let res = RenderBenchResult {
+                rays: rays.name(),
+                layout: layout.name(),
+                max_depth: depth,
+                threads: threads_used(threads),
+                samples_per_second: median(std::mem::take(&mut rates[c])),
+                spp,
+                rays_per_sample: seen[c].0,
+                occupancy: seen[c].1,
+            };
+            progress(&res);
+            results.push(res);
+        }
     }
+    // Report thread-major, as the table reads.
+    results.sort_by_key(|r| (r.threads, r.max_depth < 0, r.max_depth));
     Ok(RenderBenchReport {
         scene: scene.name(),
         width: scene.camera.width,
         height: scene.camera.height,
         results,
     })
+}
+
+/// The worker threads a thread count of 0 (one per core) stands for.
+fn threads_used(threads: usize) -> usize {
+    match threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        t => t,
+    }
 }
 
 /// A table of the figures with each mode's rate relative to single rays.
@@ -165,9 +177,17 @@ pub fn format_table(report: &RenderBenchReport) -> String {
     );
     let _ = writeln!(
         s,
-        "{:>7} {:>9} {:>14} {:>11} {:>11} {:>9} {:>9}",
-        "threads", "max depth", "rays", "M samples/s", "rays/sample", "lanes", "vs single"
+        "{:>7} {:>9} {:>14} {:>11} {:>11} {:>9} {:>9} {:>11}",
+        "threads",
+        "max depth",
+        "rays",
+        "M samples/s",
+        "rays/sample",
+        "lanes",
+        "vs single",
+        "vs 1st thr."
     );
+    let fewest = report.results.iter().map(|r| r.threads).min();
     for r in &report.results {
         let single = report
             .results
@@ -178,6 +198,17 @@ pub fn format_table(report: &RenderBenchReport) -> String {
             || "-".to_string(),
             |b| format!("{:.2}x", r.samples_per_second / b),
         );
+        let scaling = report
+            .results
+            .iter()
+            .find(|q| {
+                Some(q.threads) == fewest
+                    && (q.rays, q.layout, q.max_depth) == (r.rays, r.layout, r.max_depth)
+            })
+            .map_or_else(
+                || "-".to_string(),
+                |b| format!("{:.2}x", r.samples_per_second / b.samples_per_second),
+            );
         let depth = if r.max_depth < 0 {
             "inf".to_string()
         } else {
@@ -192,14 +223,15 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         };
         let _ = writeln!(
             s,
-            "{:>7} {:>9} {:>14} {:>11.3} {:>11.2} {:>9} {:>9}",
+            "{:>7} {:>9} {:>14} {:>11.3} {:>11.2} {:>9} {:>9} {:>11}",
             r.threads,
             depth,
             mode,
             r.samples_per_second / 1e6,
             r.rays_per_sample,
             lanes,
-            ratio
+            ratio,
+            scaling
         );
     }
     s
