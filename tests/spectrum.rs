@@ -142,6 +142,26 @@ fn tabulated_interpolates_and_is_zero_outside() {
     assert_eq!(s.max_value(), 0.8);
 }
 
+/// Under a negative scale the largest value comes from the most negative one: the bound
+/// is |scale| times the largest |value|, here exactly 3 · 2 = 6 (and never below any value).
+#[test]
+fn max_value_bounds_a_negatively_scaled_spectrum() {
+    let t = Tabulated::new(vec![400.0, 600.0], vec![-2.0, 0.5]).unwrap();
+    for s in [
+        Spectrum::Scaled(Box::new(Spectrum::Tabulated(t)), -3.0),
+        Spectrum::Scaled(Box::new(Spectrum::Constant(-2.0)), -3.0),
+        Spectrum::Scaled(
+            Box::new(Spectrum::Scaled(Box::new(Spectrum::Constant(-1.0)), 2.0)),
+            -3.0,
+        ),
+    ] {
+        assert_eq!(s.max_value(), 6.0, "{s:?}");
+        for l in (360..=830).step_by(10) {
+            assert!(s.eval(l as f32) <= s.max_value(), "{s:?} at {l} nm");
+        }
+    }
+}
+
 #[test]
 fn tabulated_rejects_unsorted_wavelengths() {
     let e = Tabulated::new(vec![400.0, 500.0, 450.0], vec![1.0, 1.0, 1.0])
