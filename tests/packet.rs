@@ -436,3 +436,45 @@ fn split_agrees_with_lane_dropping_on_the_prism_and_is_less_noisy() {
         "split is not less noisy than drop at equal spp: {ns} vs {nd}"
     );
 }
+
+/// The render's counters: every thread's rays are counted (depth 1 traces exactly one
+/// camera ray per sample), every mode traces the same rays, and the packet-lane
+/// occupancy is a share: 1 where every packet is full (depth 1 on an even-sized image),
+/// below 1 but well above ¼ once paths end at different depths, absent for single rays.
+#[test]
+fn ray_counts_add_up_over_threads_and_modes_and_occupancy_is_a_share() {
+    use stokes::integrator::render::render;
+    let mut scene = scene_file("cornell-box.toml");
+    scene.set_resolution(16, 16);
+    let run = |scene: &Scene, rays: Rays, threads: usize, depth: i32| {
+        let o = opts(16, 16, 4, rays, Dispersion::Split)
+            .threads(threads)
+            .max_depth(depth)
+            .opts;
+        render(scene, &o, &|| {}).unwrap().stats
+    };
+    for threads in [1, 2] {
+        let first = run(&scene, Rays::Single, threads, 1);
+        assert_eq!(first.rays, 16 * 16 * 4, "{threads} threads, depth 1");
+        assert_eq!(first.occupancy(), None);
+        assert_eq!(
+            run(&scene, Rays::Packet, threads, 1).occupancy(),
+            Some(1.0),
+            "{threads} threads: full packets at depth 1"
+        );
+    }
+    let single = run(&scene, Rays::Single, 1, -1);
+    assert!(single.rays > 3 * 16 * 16 * 4, "{} rays", single.rays);
+    for (rays, threads) in [(Rays::Single, 2), (Rays::Packet, 1), (Rays::Packet, 2)] {
+        let s = run(&scene, rays, threads, -1);
+        assert_eq!(
+            s.rays,
+            single.rays,
+            "{} with {threads} threads",
+            rays.name()
+        );
+        if let Some(o) = s.occupancy() {
+            assert!(o > 0.5 && o < 1.0, "occupancy {o}");
+        }
+    }
+}
