@@ -495,3 +495,78 @@ fn lanes_and_shiftings_agree_in_a_fluorescent_medium() {
     let regions = [("block", block), ("image", all_pixels(&runs[0].1))];
     assert_all_agree("fluorescent medium", &runs, &regions, 4.0);
 }
+
+/// In a scene with media, shadow rays are traced segment by segment and pass only
+/// index-matched (null) boundaries: an opaque plate between a floor and the only light
+/// leaves the floor below it black at depth 2 (direct light only), while a medium box
+/// (which the shadow rays of the lit floor beside the plate cross) keeps the media code
+/// path in use. With every shadow ray let through opaque surfaces, the floor under the
+/// plate would be lit as brightly as the rest.
+#[test]
+fn shadow_rays_in_media_scenes_stop_at_opaque_surfaces() {
+    let mut scene = scene_from(
+        r#"
+[camera]
+position = [0, 0.4, -2.5]
+look_at = [0, 0, 0]
+fov = 50
+resolution = [24, 24]
+
+[media.haze]
+sigma_a = 0.05
+sigma_s = 0.2
+
+[materials.grey]
+type = "diffuse"
+reflectance = 0.5
+
+[[shapes]]
+type = "quad"
+origin = [-3, 0, -3]
+edge_u = [0, 0, 6]
+edge_v = [6, 0, 0]
+material = "grey"
+
+[[shapes]]
+type = "quad"
+origin = [-0.6, 1, -0.6]
+edge_u = [1.2, 0, 0]
+edge_v = [0, 0, 1.2]
+material = "grey"
+
+[[shapes]]
+type = "box"
+min = [-3, 0.01, 0.8]
+max = [3, 0.6, 2.5]
+interior = "haze"
+
+[[shapes]]
+type = "quad"
+origin = [-0.1, 2, -0.1]
+edge_u = [0.2, 0, 0]
+edge_v = [0, 0, 0.2]
+emission = { radiance = "D65", scale = 20 }
+"#,
+    );
+    assert!(scene.has_media());
+    let film = TestRender::at(24, 24).spp(16).max_depth(2).film(&mut scene);
+    let mean = film.mean();
+    let lum = |i: usize| mean[i].iter().sum::<f32>();
+    // The floor straight below the plate (image centre, below the horizon of the plate)
+    // and the floor in front of it, outside the plate's shadow.
+    let (w, h) = (24, 24);
+    let shadowed: Vec<usize> = (11..14)
+        .flat_map(|y| (10..14).map(move |x| y * w + x))
+        .collect();
+    let lit: Vec<usize> = (21..h)
+        .flat_map(|y| (2..6).map(move |x| y * w + x))
+        .collect();
+    let dark = shadowed.iter().map(|&i| lum(i)).fold(0.0, f32::max);
+    let bright = lit.iter().map(|&i| lum(i)).sum::<f32>() / lit.len() as f32;
+    eprintln!("under the plate: max {dark}; beside it: mean {bright}");
+    assert!(
+        bright > 0.05,
+        "the floor beside the plate is lit ({bright})"
+    );
+    assert_eq!(dark, 0.0, "no direct light through the opaque plate");
+}
