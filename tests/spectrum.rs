@@ -142,6 +142,37 @@ fn tabulated_interpolates_and_is_zero_outside() {
     assert_eq!(s.max_value(), 0.8);
 }
 
+/// Every segment of a longer table interpolates its own two knots, on uneven and even
+/// grids, with integer knots (the integer-nm table) and without (searched per call):
+/// an index clamped one segment too early, or found one off, extrapolates a neighbour.
+#[test]
+fn tabulated_interpolates_in_every_segment_of_every_kind_of_grid() {
+    let values = vec![0.1, 0.5, 0.2, 0.9, 0.3, 0.6];
+    for knots in [
+        vec![400.0, 450.0, 500.0, 600.0, 700.0, 800.0],
+        vec![400.0, 480.0, 560.0, 640.0, 720.0, 800.0],
+        vec![400.5, 450.5, 500.5, 600.5, 700.5, 800.5],
+        vec![400.5, 480.5, 560.5, 640.5, 720.5, 800.5],
+    ] {
+        let s = Spectrum::Tabulated(Tabulated::new(knots.clone(), values.clone()).unwrap());
+        for i in 0..knots.len() - 1 {
+            for t in [0.0f32, 0.25, 0.5, 0.75] {
+                let l = knots[i] + t * (knots[i + 1] - knots[i]);
+                let want = values[i] + t * (values[i + 1] - values[i]);
+                let got = s.eval(l);
+                assert!(
+                    (got - want).abs() < 1e-5,
+                    "{knots:?} at {l} nm: {got}, expected {want}"
+                );
+            }
+        }
+        assert!(
+            (s.eval(knots[5]) - 0.6).abs() < 1e-6,
+            "{knots:?} at the last knot"
+        );
+    }
+}
+
 /// Under a negative scale the largest value comes from the most negative one: the bound
 /// is |scale| times the largest |value|, here exactly 3 · 2 = 6 (and never below any value).
 #[test]
