@@ -2,12 +2,12 @@
 # The figures of the README section "Packets against single rays", each comparison taken
 # in one run (these machines are shared and noisy), and the CPU they came from:
 #
-#   benches/packets.sh [OUT_DIR]          # default out/packets; about 25 minutes on 2 cores
+#   benches/packets.sh [OUT_DIR]          # default out/packets; about 40 minutes on 2 cores
 #   BASE=c5eae78 benches/packets.sh       # also instruction counts of that commit's binary
 #
-# 1. stokes bench render: packet, packet8, lockstep and single rays, both layouts, depths
-#    1, 3 and unbounded, 1 and 2 threads, on the Cornell box (512²) and the 100k-triangle
-#    sphere (1024²).
+# 1. stokes bench render: packet, packet8, lockstep and single rays, depths 1, 3 and
+#    unbounded, 1 and 2 threads, on the Cornell box (512²) and the 100k-triangle sphere
+#    (1024²); the two packet layouts against each other; every mode at depth 6 (256²).
 # 2. stokes bench limit: the Cornell box's fraction of its Embree limit, packet and single.
 # 3. The Cornell box at 256², 64 spp, depth 6, 2 threads against Mitsuba 3
 #    (benches/mitsuba/cbox.py, scalar_spectral and llvm_ad_spectral), alternating, three
@@ -26,10 +26,15 @@ B=target/release/stokes
 grep -m1 'model name' /proc/cpuinfo | tee "$out/cpu.txt"
 
 echo "== 1. bench render"
-$B bench render scenes/cornell-box.toml --rays single,packet,packet8,lockstep --layouts quad,pixel \
-    --max-depth 1,3,-1 --threads 1,2 --seconds 3 --repetitions 5 | tee "$out/render-cornell-box.txt"
-$B bench render scenes/sphere-100k.toml --rays single,packet,packet8 --layouts quad,pixel \
-    --max-depth 1,3,-1 --threads 1,2 --seconds 3 --repetitions 5 | tee "$out/render-sphere-100k.txt"
+for scene in cornell-box sphere-100k; do
+    $B bench render "scenes/$scene.toml" --rays single,packet,packet8,lockstep \
+        --max-depth 1,3,-1 --threads 1,2 --seconds 16 --repetitions 4 | tee "$out/render-$scene.txt"
+done
+# Packet layouts against each other, and the Mitsuba comparison's depth in every mode.
+$B bench render scenes/cornell-box.toml --rays packet,packet8 --layouts quad,pixel \
+    --max-depth 1,3,-1 --threads 1 --seconds 8 --repetitions 4 | tee "$out/layouts-cornell-box.txt"
+$B bench render scenes/cornell-box.toml --res 256x256 --max-depth 6 --threads 2 \
+    --rays single,packet,lockstep,packet8 --seconds 30 --repetitions 8 | tee "$out/depth6-cornell-box.txt"
 
 echo "== 2. bench limit"
 for rays in packet single; do
