@@ -438,7 +438,7 @@ fn split_agrees_with_lane_dropping_on_the_prism_and_is_less_noisy() {
 }
 
 /// The render's counters: every thread's rays are counted (depth 1 traces exactly one
-/// camera ray per sample), every mode traces the same rays, and the packet-lane
+/// camera ray per sample), every thread count and mode the same rays, and the packet-lane
 /// occupancy is a share: 1 where every packet is full (depth 1 on an even-sized image),
 /// below 1 but well above ¼ once paths end at different depths, absent for single rays.
 #[test]
@@ -463,18 +463,21 @@ fn ray_counts_add_up_over_threads_and_modes_and_occupancy_is_a_share() {
             "{threads} threads: full packets at depth 1"
         );
     }
+    // Thread counts run the same arithmetic: the same rays, exactly. Packets and single
+    // rays may part at an edge hit that Embree's packet kernel resolves to the
+    // neighbouring triangle (see the module docs), so across modes the counts agree to 1 %.
     let single = run(&scene, Rays::Single, 1, -1);
     assert!(single.rays > 3 * 16 * 16 * 4, "{} rays", single.rays);
-    for (rays, threads) in [(Rays::Single, 2), (Rays::Packet, 1), (Rays::Packet, 2)] {
-        let s = run(&scene, rays, threads, -1);
-        assert_eq!(
-            s.rays,
-            single.rays,
-            "{} with {threads} threads",
-            rays.name()
-        );
-        if let Some(o) = s.occupancy() {
-            assert!(o > 0.5 && o < 1.0, "occupancy {o}");
-        }
-    }
+    assert_eq!(run(&scene, Rays::Single, 2, -1).rays, single.rays);
+    let packet = run(&scene, Rays::Packet, 1, -1);
+    assert_eq!(run(&scene, Rays::Packet, 2, -1).rays, packet.rays);
+    let rel = (packet.rays as f64 / single.rays as f64 - 1.0).abs();
+    assert!(
+        rel < 0.01,
+        "packet {} against single {} rays",
+        packet.rays,
+        single.rays
+    );
+    let o = packet.occupancy().unwrap();
+    assert!(o > 0.5 && o < 1.0, "occupancy {o}");
 }
