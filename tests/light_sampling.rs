@@ -670,10 +670,10 @@ fn black_lights_are_chosen_uniformly_and_keep_a_finite_density() {
     assert!(s.p.is_finite() && s.pdf_area == 0.5, "{s:?}");
 }
 
-/// Scene warnings for a quad light of the given emission.
-fn light_warnings(emission: &str) -> Vec<String> {
-    let text = format!(
-        r#"
+/// Scene warnings for a floor under a quad light of the given emission (no light at all
+/// for `None`).
+fn light_warnings_of(emission: Option<&str>) -> Vec<String> {
+    let mut text = r#"
 [camera]
 position = [0, 1, -3]
 look_at = [0, 1, 0]
@@ -690,16 +690,26 @@ origin = [-1, 0, -1]
 edge_u = [2, 0, 0]
 edge_v = [0, 0, 2]
 material = "white"
-
+"#
+    .to_string();
+    if let Some(e) = emission {
+        text += &format!(
+            r#"
 [[shapes]]
 type = "quad"
 origin = [-0.5, 2, -0.5]
 edge_u = [1, 0, 0]
 edge_v = [0, 0, 1]
-emission = {emission}
+emission = {e}
 "#
-    );
+        );
+    }
     common::scene_from(&text).warnings
+}
+
+/// Scene warnings for a quad light of the given emission.
+fn light_warnings(emission: &str) -> Vec<String> {
+    light_warnings_of(Some(emission))
 }
 
 #[test]
@@ -721,25 +731,7 @@ fn bands_narrower_than_a_nanometre_are_warned_of() {
 fn a_scene_without_lights_is_warned_of() {
     let dark = |w: &[String]| w.iter().any(|w| w.contains("has no light"));
     assert!(!dark(&light_warnings("{ radiance = 1.0 }")));
-    let text = r#"
-[camera]
-position = [0, 1, -3]
-look_at = [0, 1, 0]
-fov = 40
-resolution = [8, 8]
-
-[materials.white]
-type = "diffuse"
-reflectance = 0.5
-
-[[shapes]]
-type = "quad"
-origin = [-1, 0, -1]
-edge_u = [2, 0, 0]
-edge_v = [0, 0, 2]
-material = "white"
-"#;
-    assert!(dark(&common::scene_from(text).warnings));
+    assert!(dark(&light_warnings_of(None)));
 }
 
 #[test]
