@@ -92,3 +92,28 @@ for bin in "${bins[@]}"; do
     done
 done | tee "$out/instructions.txt"
 if [ -n "${BASE:-}" ]; then git worktree remove --force "$tmp/src"; rm -rf "$tmp"; fi
+
+echo "== 6. where a Cornell-box sample's instructions go (callgrind, by source file), and the width-1 estimator's scalar against packed multiplies"
+split() { # rays spp -> "embree spectra rng rest" instruction totals
+    valgrind --tool=callgrind --callgrind-out-file="$out/cg-$1-$2.out" "$B" render scenes/cornell-box.toml \
+        --res 64x64 --spp "$2" --threads 1 --rays "$1" -o "$out/cg.exr" >/dev/null 2>&1
+    callgrind_annotate --auto=no --threshold=100 "$out/cg-$1-$2.out" | awk '
+        /file:function/ { f = 1; next }
+        f && NF >= 2 { gsub(",", "", $1); n = $1 + 0
+            if ($0 ~ /libembree/) e += n
+            else if ($0 ~ /spectrum\/|cie.rs|color.rs/) s += n
+            else if ($0 ~ /sampler.rs/) r += n
+            else o += n }
+        END { printf "%d %d %d %d\n", e, s, r, o }'
+}
+for rays in single packet; do
+    read -ra a <<< "$(split "$rays" 9)"
+    read -ra b <<< "$(split "$rays" 1)"
+    n=$((8 * 64 * 64))
+    echo "$rays per sample: Embree $(((a[0] - b[0]) / n)), spectra $(((a[1] - b[1]) / n)), random streams $(((a[2] - b[2]) / n)), the rest $(((a[3] - b[3]) / n))"
+done | tee "$out/instructions-split.txt"
+# The width-1 Tracer::run instances are the ones that call rtcIntersect1.
+objdump -d --no-show-raw-insn "$B" | awk '
+    /^[0-9a-f]+ </ { if (inrun && body ~ /rtcIntersect1@/) print body; inrun = 0 }
+    /^[0-9a-f]+ <.*Tracer.*3run/ { inrun = 1; body = ""; next }
+    inrun { body = body "\n" $0 }' | grep -oE '\b(mulss|mulps)\b' | sort | uniq -c | tee "$out/width1-multiplies.txt"
