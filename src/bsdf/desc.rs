@@ -1,7 +1,7 @@
 //! Materials as a scene file writes them (`[materials.NAME]`), and their parser. The
 //! syntax of every kind is in the [module documentation](super).
 
-use super::{Ior, Material};
+use super::{metals, Ior, Material, MIN_ALPHA};
 use crate::error::{Key, KeyError};
 use crate::fluoro::{self, Reradiation};
 use crate::scene::context::reject_keys;
@@ -30,6 +30,42 @@ pub struct MaterialDesc {
     pub dye: Option<DyeDesc>,
     /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid).
     pub matrix: Option<String>,
+    /// `conductor`, `dielectric`: GGX width α in [0, 1] (0: smooth), or `[αu, αv]`.
+    pub roughness: Option<RoughnessDesc>,
+    /// `conductor`: a shipped metal's symbol (`"Au"`, `"Ag"`, `"Cu"`, `"Al"`).
+    pub metal: Option<String>,
+    /// `conductor`: real part of the index of refraction (> 0), instead of `metal`.
+    pub eta: Option<SpectrumDesc>,
+    /// `conductor`: extinction coefficient (≥ 0), with `eta`.
+    pub k: Option<SpectrumDesc>,
+}
+
+/// A GGX roughness: `0.2` (isotropic) or `[0.1, 0.4]` (along the two tangents).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum RoughnessDesc {
+    /// α on both axes.
+    Isotropic(f64),
+    /// α along the first and the second tangent.
+    Anisotropic([f64; 2]),
+}
+
+impl RoughnessDesc {
+    /// The widths, each 0 (smooth) or in [[`MIN_ALPHA`], 1]; both 0 or neither.
+    fn alpha(&self, key: &Key) -> Result<[f32; 2], KeyError> {
+        let a = match *self {
+            RoughnessDesc::Isotropic(a) => [a, a],
+            RoughnessDesc::Anisotropic(a) => a,
+        };
+        let ok = |x: f64| x == 0.0 || (f64::from(MIN_ALPHA)..=1.0).contains(&x);
+        if !(a.iter().all(|&x| ok(x)) && (a[0] == 0.0) == (a[1] == 0.0)) {
+            return Err(key.expected(
+                format!("0 (smooth) or a GGX width in [{MIN_ALPHA}, 1] (both axes smooth or both rough)"),
+                format!("{a:?}"),
+            ));
+        }
+        Ok(a.map(|x| x as f32))
+    }
 }
 
 /// A fluorescent dye on a surface:
@@ -137,8 +173,28 @@ impl Material {
         if kind != "fluorescent_diffuse" {
             reject(&[("dye", m.dye.is_some()), ("matrix", m.matrix.is_some())])?;
         }
+        if kind != "conductor" {
+            reject(&[
+                ("metal", m.metal.is_some()),
+                ("eta", m.eta.is_some()),
+                ("k", m.k.is_some()),
+            ])?;
+        }
+        if !matches!(kind, "conductor" | "dielectric") {
+            reject(&[("roughness", m.roughness.is_some())])?;
+        }
+        let alpha = match &m.roughness {
+            Some(r) => r.alpha(&key.field("roughness"))?,
+            None => [0.0; 2],
+        };
         let ior_keys = [("ior", m.ior.is_some()), ("ext_ior", m.ext_ior.is_some())];
         match kind {
+            "conductor" => {
+                reject(&ior_keys)?;
+                reject(&[("reflectance", m.reflectance.is_some())])?;
+                let (eta, k) = conductor_index(m, key, ctx)?;
+                Ok(Material::Conductor { eta, k, alpha })
+            }
             "diffuse" => {
                 reject(&ior_keys)?;
                 let r = m
@@ -168,7 +224,14 @@ impl Material {
                 if !(ext_ior.is_finite() && ext_ior >= 1.0) {
                     return Err(key.field("ext_ior").expected("a number ≥ 1", ext_ior));
                 }
-                Ok(Material::Dielectric { ior, ext_ior })
+                Ok(match alpha {
+                    [0.0, 0.0] => Material::Dielectric { ior, ext_ior },
+                    alpha => Material::RoughDielectric {
+                        ior,
+                        ext_ior,
+                        alpha,
+                    },
+                })
             }
             "fluorescent_diffuse" => {
                 reject(&ior_keys)?;
@@ -189,10 +252,49 @@ impl Material {
                 })
             }
             other => Err(key.field("type").expected(
-                "one of \"diffuse\", \"mirror\", \"dielectric\", \"fluorescent_diffuse\"",
+                "one of \"diffuse\", \"mirror\", \"dielectric\", \"conductor\", \"fluorescent_diffuse\"",
                 format!("{other:?}"),
             )),
         }
+    }
+}
+
+/// A conductor's η and k: a shipped `metal`, or `eta` and `k` spectra (η > 0 and k ≥ 0
+/// over the rendered range).
+fn conductor_index(
+    m: &MaterialDesc,
+    key: &Key,
+    ctx: &Context,
+) -> Result<(Spectrum, Spectrum), KeyError> {
+    match (&m.metal, &m.eta, &m.k) {
+        (Some(name), None, None) => metals::metal(name).ok_or_else(|| {
+            key.field("metal")
+                .expected(format!("one of {}", metals::symbols()), format!("{name:?}"))
+        }),
+        (None, Some(eta), Some(k)) => {
+            let eta_key = key.field("eta");
+            let k_key = key.field("k");
+            let eta = Spectrum::from_desc(eta, &eta_key, ctx, None)?;
+            let k = Spectrum::from_desc(k, &k_key, ctx, None)?;
+            for l in (LAMBDA_MIN as u32..=LAMBDA_MAX as u32).map(|l| l as f32) {
+                let (e, kv) = (eta.eval(l), k.eval(l));
+                if !(e.is_finite() && e > 0.0) {
+                    return Err(eta_key
+                        .expected("an index η > 0 over 360–830 nm", format!("{e} at {l} nm")));
+                }
+                if !(kv.is_finite() && kv >= 0.0) {
+                    return Err(k_key.expected(
+                        "an extinction coefficient k ≥ 0 over 360–830 nm",
+                        format!("{kv} at {l} nm"),
+                    ));
+                }
+            }
+            Ok((eta, k))
+        }
+        _ => Err(key.error(format!(
+            "a conductor needs either `metal` (one of {}) or both `eta` and `k`",
+            metals::symbols()
+        ))),
     }
 }
 

@@ -1,4 +1,5 @@
-//! Surface scattering: diffuse, perfect mirror and smooth (optionally dispersive) dielectric.
+//! Surface scattering: diffuse, perfect mirror, smooth and rough (optionally dispersive)
+//! dielectrics, smooth and rough conductors.
 //!
 //! Every routine works on the four HWSS lanes at once. Sampling is driven by the hero
 //! (lane 0); the result carries each lane's value `f·|cos|` and each lane's pdf of the
@@ -18,6 +19,12 @@
 //! type = "dielectric"          # ior: a number, { cauchy = [A, B] } (B in nm²) or Sellmeier
 //! ior = { sellmeier = { b = [1.03961212, 0.231792344, 1.01046945], c = [0.00600069867, 0.0200179144, 103.560653] } }
 //! ext_ior = 1.0                # optional, the index outside
+//! roughness = 0.1              # optional: GGX width α (0, the default: smooth), or [αu, αv]
+//! [materials.gold]
+//! type = "conductor"           # metal = "Au", "Ag", "Cu" or "Al" (measured, data/metals/),
+//! metal = "Au"                 # or eta = SPECTRUM and k = SPECTRUM (η > 0, k ≥ 0)
+//! roughness = [0.05, 0.2]      # optional, as for dielectrics; anisotropic widths follow
+//!                              # the tangents of the shading normal's frame
 //! [materials.highlighter]
 //! type = "fluorescent_diffuse" # a dye over a reflectance, or matrix = "measured.csv"
 //! reflectance = 0.8
@@ -25,11 +32,15 @@
 //! ```
 
 pub mod desc;
+pub mod metals;
+pub mod microfacet;
+pub mod rough;
 
 pub use desc::{DyeDesc, IorDesc, IorTable, MaterialDesc, SellmeierDesc};
+pub use microfacet::{fresnel_conductor, Frame, Ggx};
 
 use crate::fluoro::Reradiation;
-use crate::simd::{math, Float, Lanes, Mask, Spec, V3};
+use crate::simd::{math, Float, Mask, Spec, V3};
 use crate::spectrum::Spectrum;
 use glam::{Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
@@ -126,6 +137,25 @@ pub enum Material {
         ior: Ior,
         /// Exterior index.
         ext_ior: f32,
+    },
+    /// Rough dielectric interface: GGX reflection and refraction ([`rough`]).
+    RoughDielectric {
+        /// Interior index.
+        ior: Ior,
+        /// Exterior index.
+        ext_ior: f32,
+        /// GGX widths along the two tangents.
+        alpha: [f32; 2],
+    },
+    /// A metal: Fresnel reflection with a complex index η + ik, smooth (`alpha` zero, a
+    /// Dirac reflection) or rough (GGX, [`rough`]).
+    Conductor {
+        /// Real part of the index, relative to the outside.
+        eta: Spectrum,
+        /// Imaginary part (extinction coefficient).
+        k: Spectrum,
+        /// GGX widths along the two tangents; [0, 0] for a smooth conductor.
+        alpha: [f32; 2],
     },
 }
 
@@ -233,6 +263,18 @@ pub enum Lobe {
     Mirror(Vec4),
     /// Dielectric with per-lane interior index and the exterior index.
     Dielectric(Vec4, f32),
+    /// Rough dielectric: per-lane interior index, exterior index, GGX widths.
+    RoughDielectric(Vec4, f32, [f32; 2]),
+    /// Conductor: per-lane η and k, GGX widths ([0, 0]: smooth).
+    Conductor(Vec4, Vec4, [f32; 2]),
+}
+
+/// Whether GGX widths describe a rough surface; below this a conductor is a Dirac mirror
+/// (the parser enforces 0 or at least this, so no lobe is numerically a spike).
+pub const MIN_ALPHA: f32 = 1e-3;
+
+fn is_rough(alpha: [f32; 2]) -> bool {
+    alpha[0] >= MIN_ALPHA && alpha[1] >= MIN_ALPHA
 }
 
 impl Material {
@@ -245,6 +287,14 @@ impl Material {
             Material::Mirror { reflectance } => Lobe::Mirror(reflectance.eval4(lambda)),
             Material::FluorescentDiffuse { .. } => Lobe::Diffuse(Vec4::ONE),
             Material::Dielectric { ior, ext_ior } => Lobe::Dielectric(ior.eval4(lambda), *ext_ior),
+            Material::RoughDielectric {
+                ior,
+                ext_ior,
+                alpha,
+            } => Lobe::RoughDielectric(ior.eval4(lambda), *ext_ior, *alpha),
+            Material::Conductor { eta, k, alpha } => {
+                Lobe::Conductor(eta.eval4(lambda), k.eval4(lambda), *alpha)
+            }
         }
     }
 }
@@ -253,20 +303,47 @@ impl Lobe {
     /// Whether every scattering event is a Dirac delta (no light sampling helps).
     #[inline]
     pub fn is_specular(&self) -> bool {
-        !matches!(self, Lobe::Diffuse(_))
+        match *self {
+            Lobe::Diffuse(_) | Lobe::RoughDielectric(..) => false,
+            Lobe::Conductor(_, _, alpha) => !is_rough(alpha),
+            Lobe::Mirror(_) | Lobe::Dielectric(..) => true,
+        }
     }
 
-    /// f·|cos θᵢ| and the per-lane pdf of sampling `wi` ([`Lobes::eval`] for one path).
+    /// f·|cos θᵢ| and the per-lane pdf of sampling `wi` ([`Lobes::eval`] for one path
+    /// whose shading normal is the geometric normal `n`).
     #[inline]
     pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3) -> (Vec4, Vec4) {
-        let (f, pdf) = Lobes::<f32>::one(*self).eval(n.into(), wo.into(), wi.into());
+        self.eval_shaded(n, n, wo, wi)
+    }
+
+    /// [`Lobe::eval`] with a shading normal `ns` beside the geometric normal `ng`.
+    #[inline]
+    pub fn eval_shaded(&self, ng: Vec3, ns: Vec3, wo: Vec3, wi: Vec3) -> (Vec4, Vec4) {
+        let nrm = Normals::<f32>::new(ng.into(), ns.into(), ng != ns, wo.into());
+        let (f, pdf) = Lobes::<f32>::one(*self).eval(&nrm, wo.into(), wi.into());
         (f.into(), pdf.into())
     }
 
-    /// Samples a direction with the hero's wavelength ([`Lobes::sample`] for one path).
+    /// Samples a direction with the hero's wavelength ([`Lobes::sample`] for one path
+    /// whose shading normal is the geometric normal `n`).
     #[inline]
     pub fn sample(&self, n: Vec3, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSample> {
-        let s = Lobes::<f32>::one(*self).sample(n.into(), wo.into(), uc, u);
+        self.sample_shaded(n, n, wo, uc, u)
+    }
+
+    /// [`Lobe::sample`] with a shading normal `ns` beside the geometric normal `ng`.
+    #[inline]
+    pub fn sample_shaded(
+        &self,
+        ng: Vec3,
+        ns: Vec3,
+        wo: Vec3,
+        uc: f32,
+        u: [f32; 2],
+    ) -> Option<BsdfSample> {
+        let nrm = Normals::<f32>::new(ng.into(), ns.into(), ng != ns, wo.into());
+        let s = Lobes::<f32>::one(*self).sample(&nrm, wo.into(), uc, u);
         s.valid.then(|| BsdfSample {
             wi: s.wi.into(),
             f_cos: s.f_cos.into(),
@@ -275,24 +352,91 @@ impl Lobe {
         })
     }
 
-    /// The refraction of every lane at a dielectric, for splitting a path whose lanes
-    /// leave a dispersive interface in different directions. Per lane: its own refracted
-    /// direction (`None` under total internal reflection), f·|cos θᵢ| = (1 − F)/η², and
-    /// the probability 1 − F with which that lane, as hero, chooses refraction (no lane is
-    /// masked, unlike [`Lobe::sample`]). `None` for a lobe that does not refract.
+    /// The refraction of every lane at a smooth dielectric, for splitting a path whose
+    /// lanes leave a dispersive interface in different directions. Per lane: its own
+    /// refracted direction (`None` under total internal reflection, or where the shading
+    /// normal would send it back to `wo`'s side), f·|cos θᵢ| = (1 − F)/η², and the
+    /// probability 1 − F with which that lane, as hero, chooses refraction (no lane is
+    /// masked, unlike [`Lobe::sample`]). `None` for a lobe that does not refract this way.
     #[inline]
-    pub fn refract_lanes(&self, n: Vec3, wo: Vec3) -> Option<([Option<Vec3>; 4], Vec4, Vec4)> {
+    pub fn refract_lanes(
+        &self,
+        nrm: &Normals<f32>,
+        wo: Vec3,
+    ) -> Option<([Option<Vec3>; 4], Vec4, Vec4)> {
         let Lobe::Dielectric(n_in, ext_ior) = *self else {
             return None;
         };
-        let (n, wo) = (V3::<f32>::from(n), V3::<f32>::from(wo));
-        let (ns, eta, fr) = dielectric_at(Spec::from(n_in), ext_ior, n, wo);
+        let wo = V3::<f32>::from(wo);
+        let (ns, eta, fr) = dielectric_at(Spec::from(n_in), ext_ior, nrm, wo);
         let t = Spec::splat(1.0) - fr;
         let wi = std::array::from_fn(|k| match refract(wo, ns, eta[k]) {
-            (wi, true) => Some(wi.into()),
+            (wi, true) if nrm.crosses(wo, wi) => Some(wi.into()),
             _ => None,
         });
         Some((wi, (t / (eta * eta)).into(), t.into()))
+    }
+}
+
+/// The normals at W paths' surface vertices: the geometric normal decides sides (which
+/// medium a direction is in, whether light passes), the shading normal shapes the lobes.
+#[derive(Debug, Clone, Copy)]
+pub struct Normals<F: Float> {
+    /// Unit geometric normal.
+    pub ng: V3<F>,
+    /// Unit shading normal (the geometric one where a path has none).
+    pub ns: V3<F>,
+    /// The paths whose shading normal differs from the geometric one: only these pay
+    /// for the extra side tests, so flat meshes take exactly the arithmetic they always did.
+    pub shaded: F::Mask,
+}
+
+impl<F: Float> Normals<F> {
+    /// Flat shading: the geometric normal everywhere.
+    #[inline(always)]
+    pub fn flat(ng: V3<F>) -> Normals<F> {
+        Normals {
+            ng,
+            ns: ng,
+            shaded: F::Mask::splat(false),
+        }
+    }
+
+    /// Shading normals `ns` where `has`; a shading normal that puts `wo` on the other
+    /// side than the geometric one does is replaced by the geometric normal, so an
+    /// interpolated normal never turns a visible surface black (no seams at silhouettes).
+    #[inline(always)]
+    pub fn new(ng: V3<F>, ns: V3<F>, has: F::Mask, wo: V3<F>) -> Normals<F> {
+        let agree = (ns.dot(wo) * ng.dot(wo)).gt(F::splat(0.0));
+        let shaded = has & agree;
+        Normals {
+            ng,
+            ns: V3::select(shaded, ns, ng),
+            shaded,
+        }
+    }
+
+    /// Path `i`'s normals.
+    #[inline]
+    pub fn path(&self, i: usize) -> Normals<f32> {
+        Normals {
+            ng: self.ng.path(i).into(),
+            ns: self.ns.path(i).into(),
+            shaded: self.shaded.get(i),
+        }
+    }
+
+    /// The paths for which a reflection of `wo` into `wi` stays on `wo`'s geometric side
+    /// (always true for unshaded paths of the classic lobes, which never checked it).
+    #[inline(always)]
+    fn reflects(&self, wo: V3<F>, wi: V3<F>) -> F::Mask {
+        (self.ng.dot(wo) * self.ng.dot(wi)).gt(F::splat(0.0)) | !self.shaded
+    }
+
+    /// The paths for which `wi` crosses to the other geometric side (likewise).
+    #[inline(always)]
+    fn crosses(&self, wo: V3<F>, wi: V3<F>) -> F::Mask {
+        (self.ng.dot(wo) * self.ng.dot(wi)).lt(F::splat(0.0)) | !self.shaded
     }
 }
 
@@ -305,40 +449,98 @@ pub struct Lobes<F: Float> {
     pub diffuse: F::Mask,
     /// The mirror paths.
     pub mirror: F::Mask,
-    /// The dielectric paths.
+    /// The smooth dielectric paths.
     pub dielectric: F::Mask,
+    /// The rough dielectric paths.
+    pub rough_dielectric: F::Mask,
+    /// The smooth conductor paths.
+    pub conductor: F::Mask,
+    /// The rough conductor paths.
+    pub rough_conductor: F::Mask,
     /// Diffuse albedo or mirror reflectance.
     pub albedo: Spec<F>,
-    /// Dielectric interior index per wavelength.
+    /// Dielectric interior index, or conductor η, per wavelength.
     pub n_in: Spec<F>,
+    /// Conductor k per wavelength.
+    pub k: Spec<F>,
     /// Dielectric exterior index.
     pub ext_ior: F,
+    /// GGX widths of the rough paths (1 elsewhere).
+    pub alpha: [F; 2],
 }
 
 impl<F: Float> Lobes<F> {
+    /// No path on any lobe.
+    #[inline(always)]
+    fn none() -> Lobes<F> {
+        let no = F::Mask::splat(false);
+        Lobes {
+            diffuse: no,
+            mirror: no,
+            dielectric: no,
+            rough_dielectric: no,
+            conductor: no,
+            rough_conductor: no,
+            albedo: Spec::splat(1.0),
+            n_in: Spec::splat(1.0),
+            k: Spec::splat(0.0),
+            ext_ior: F::splat(1.0),
+            alpha: [F::splat(1.0); 2],
+        }
+    }
+
+    /// Puts the paths `m` on `lobe`, whose parameters are `lambda`'s (`at(m)` gives them).
+    #[inline(always)]
+    fn set(&mut self, m: F::Mask, lobe: LobeKind, p: LobeParams<F>) {
+        match lobe {
+            LobeKind::Diffuse => self.diffuse |= m,
+            LobeKind::Mirror => self.mirror |= m,
+            LobeKind::Dielectric => self.dielectric |= m,
+            LobeKind::RoughDielectric => self.rough_dielectric |= m,
+            LobeKind::Conductor => self.conductor |= m,
+            LobeKind::RoughConductor => self.rough_conductor |= m,
+        }
+        if let Some(a) = p.albedo {
+            self.albedo.set_where(m, a);
+        }
+        if let Some(n) = p.n_in {
+            self.n_in.set_where(m, n);
+        }
+        if let Some(k) = p.k {
+            self.k.set_where(m, k);
+        }
+        if let Some(e) = p.ext_ior {
+            self.ext_ior = F::select(m, F::splat(e), self.ext_ior);
+        }
+        if let Some([ax, ay]) = p.alpha {
+            self.alpha[0] = F::select(m, F::splat(ax), self.alpha[0]);
+            self.alpha[1] = F::select(m, F::splat(ay), self.alpha[1]);
+        }
+    }
+
     /// The lobes of the paths in `active`: path i's is `lobe(i)`.
     #[inline(always)]
     pub fn from_fn(active: F::Mask, mut lobe: impl FnMut(usize) -> Lobe) -> Lobes<F> {
-        let l: F::Arr<Option<Lobe>> = Lanes::from_fn(|i| active.get(i).then(|| lobe(i)));
-        let albedo = Spec::from_fn(|i| match l[i] {
-            Some(Lobe::Diffuse(a) | Lobe::Mirror(a)) => a,
-            _ => Vec4::ONE,
-        });
-        let n_in = Spec::from_fn(|i| match l[i] {
-            Some(Lobe::Dielectric(n, _)) => n,
-            _ => Vec4::ONE,
-        });
-        Lobes {
-            diffuse: F::Mask::from_fn(|i| matches!(l[i], Some(Lobe::Diffuse(_)))),
-            mirror: F::Mask::from_fn(|i| matches!(l[i], Some(Lobe::Mirror(_)))),
-            dielectric: F::Mask::from_fn(|i| matches!(l[i], Some(Lobe::Dielectric(..)))),
-            albedo,
-            n_in,
-            ext_ior: F::from_fn(|i| match l[i] {
-                Some(Lobe::Dielectric(_, ext)) => ext,
-                _ => 1.0,
-            }),
+        let mut l = Lobes::none();
+        for i in active.iter() {
+            let m = F::Mask::from_fn(|j| j == i);
+            let one = |v: Vec4| Spec::<F>::from_fn(|_| v);
+            let (kind, p) = match lobe(i) {
+                Lobe::Diffuse(a) => (LobeKind::Diffuse, LobeParams::albedo(one(a))),
+                Lobe::Mirror(a) => (LobeKind::Mirror, LobeParams::albedo(one(a))),
+                Lobe::Dielectric(n, e) => (LobeKind::Dielectric, LobeParams::ior(one(n), e, None)),
+                Lobe::RoughDielectric(n, e, a) => (
+                    LobeKind::RoughDielectric,
+                    LobeParams::ior(one(n), e, Some(a)),
+                ),
+                Lobe::Conductor(eta, k, a) => (
+                    conductor_kind(a),
+                    LobeParams::conductor(one(eta), one(k), a),
+                ),
+            };
+            l.set(m, kind, p);
         }
+        l
     }
 
     /// The lobes of the paths in `active`, path i on material `materials[mat[i]]` at its
@@ -350,39 +552,42 @@ impl<F: Float> Lobes<F> {
         active: F::Mask,
         lambda: &Spec<F>,
     ) -> Lobes<F> {
-        let no = F::Mask::splat(false);
-        let mut l = Lobes {
-            diffuse: no,
-            mirror: no,
-            dielectric: no,
-            albedo: Spec::splat(1.0),
-            n_in: Spec::splat(1.0),
-            ext_ior: F::splat(1.0),
-        };
+        let mut l = Lobes::none();
         let mut left = active;
         while let Some(first) = left.iter().next() {
             let id = mat[first];
             let m = left & F::Mask::from_fn(|i| mat[i] == id);
             left &= !m;
-            match &materials[id as usize] {
-                Material::Diffuse { reflectance } => {
-                    l.diffuse |= m;
-                    l.albedo.set_where(m, reflectance.eval_w(lambda, m));
-                }
-                Material::Mirror { reflectance } => {
-                    l.mirror |= m;
-                    l.albedo.set_where(m, reflectance.eval_w(lambda, m));
-                }
+            let (kind, p) = match &materials[id as usize] {
+                Material::Diffuse { reflectance } => (
+                    LobeKind::Diffuse,
+                    LobeParams::albedo(reflectance.eval_w(lambda, m)),
+                ),
+                Material::Mirror { reflectance } => (
+                    LobeKind::Mirror,
+                    LobeParams::albedo(reflectance.eval_w(lambda, m)),
+                ),
                 Material::FluorescentDiffuse { .. } => {
-                    l.diffuse |= m;
-                    l.albedo.set_where(m, Spec::splat(1.0));
+                    (LobeKind::Diffuse, LobeParams::albedo(Spec::splat(1.0)))
                 }
-                Material::Dielectric { ior, ext_ior } => {
-                    l.dielectric |= m;
-                    l.n_in.set_where(m, ior.eval_w(lambda, m));
-                    l.ext_ior = F::select(m, F::splat(*ext_ior), l.ext_ior);
-                }
-            }
+                Material::Dielectric { ior, ext_ior } => (
+                    LobeKind::Dielectric,
+                    LobeParams::ior(ior.eval_w(lambda, m), *ext_ior, None),
+                ),
+                Material::RoughDielectric {
+                    ior,
+                    ext_ior,
+                    alpha,
+                } => (
+                    LobeKind::RoughDielectric,
+                    LobeParams::ior(ior.eval_w(lambda, m), *ext_ior, Some(*alpha)),
+                ),
+                Material::Conductor { eta, k, alpha } => (
+                    conductor_kind(*alpha),
+                    LobeParams::conductor(eta.eval_w(lambda, m), k.eval_w(lambda, m), *alpha),
+                ),
+            };
+            l.set(m, kind, p);
         }
         l
     }
@@ -396,38 +601,63 @@ impl<F: Float> Lobes<F> {
     /// The paths whose every scattering event is a Dirac delta (no light sampling helps).
     #[inline(always)]
     pub fn is_specular(&self) -> F::Mask {
-        !self.diffuse
+        !(self.diffuse | self.rough_conductor | self.rough_dielectric)
+    }
+
+    /// The GGX distribution of the rough paths.
+    #[inline(always)]
+    fn ggx(&self) -> Ggx<F> {
+        Ggx::new(self.alpha[0], self.alpha[1])
     }
 
     /// f·|cos θᵢ| and the per-wavelength pdf of sampling `wi`, for light sampling and MIS;
-    /// 0 for specular lobes. `n` is the geometric normal, `wo` points back along the
-    /// incoming ray.
+    /// 0 for specular lobes. `wo` points back along the incoming ray.
     #[inline(always)]
-    pub fn eval(&self, n: V3<F>, wo: V3<F>, wi: V3<F>) -> (Spec<F>, Spec<F>) {
+    pub fn eval(&self, nrm: &Normals<F>, wo: V3<F>, wi: V3<F>) -> (Spec<F>, Spec<F>) {
+        let n = nrm.ng;
         let (co, ci) = (n.dot(wo), n.dot(wi));
-        let ok = self.diffuse & (co * ci).gt(F::splat(0.0));
-        // Lambertian: f·cos θ = albedo·cos θ/π, exactly the sampling density.
-        let pdf = cosine_hemisphere_pdf(ci.abs()).masked(ok);
-        (self.albedo * pdf, Spec::broadcast(pdf))
+        // Lambertian: f·cos θ = albedo·cos θ/π, exactly the sampling density. The cosine
+        // is the shading normal's (turned to wo's side); flat paths get |n·wi| exactly.
+        let cs = nrm.ns.dot(wi);
+        let c = F::select(co.lt(F::splat(0.0)), -cs, cs);
+        let ok = self.diffuse & (co * ci).gt(F::splat(0.0)) & c.gt(F::splat(0.0));
+        let pdf = cosine_hemisphere_pdf(c).masked(ok);
+        let mut f = self.albedo * pdf;
+        let mut p = Spec::broadcast(pdf);
+        if self.rough_conductor.any() {
+            let m = self.rough_conductor;
+            let (fc, pc) =
+                rough::eval_conductor(&self.ggx(), &self.n_in, &self.k, n, nrm.ns, wo, wi);
+            f.set_where(m, fc);
+            p.set_where(m, pc);
+        }
+        if self.rough_dielectric.any() {
+            let m = self.rough_dielectric;
+            let (fd, pd) =
+                rough::eval_dielectric(&self.ggx(), &self.n_in, self.ext_ior, n, nrm.ns, wo, wi);
+            f.set_where(m, fd);
+            p.set_where(m, pd);
+        }
+        (f, p)
     }
 
     /// Samples a direction with each path's hero wavelength (lane 0). `uc` picks between
     /// reflection and refraction, `u` is the 2-D sample for a direction.
     #[inline(always)]
-    pub fn sample(&self, n: V3<F>, wo: V3<F>, uc: F, u: [F; 2]) -> BsdfSamples<F> {
+    pub fn sample(&self, nrm: &Normals<F>, wo: V3<F>, uc: F, u: [F; 2]) -> BsdfSamples<F> {
         let zero = F::splat(0.0);
         let mut s = BsdfSamples {
             valid: F::Mask::splat(false),
             wi: V3::splat(Vec3::ZERO),
             f_cos: Spec::zero(),
             pdf: Spec::zero(),
-            specular: !self.diffuse,
+            specular: self.is_specular(),
         };
-        let ns = V3::select(n.dot(wo).lt(zero), -n, n);
+        let ns = V3::select(nrm.ng.dot(wo).lt(zero), -nrm.ns, nrm.ns);
         if self.diffuse.any() {
             let wi = sample_cosine_w(ns, u);
             let c = ns.dot(wi);
-            let ok = self.diffuse & c.gt(zero);
+            let ok = self.diffuse & c.gt(zero) & nrm.reflects(wo, wi);
             let pdf = cosine_hemisphere_pdf(c);
             s.valid |= ok;
             s.wi.set_where(ok, wi);
@@ -435,52 +665,156 @@ impl<F: Float> Lobes<F> {
             s.pdf.set_where(ok, Spec::broadcast(pdf));
         }
         if self.mirror.any() {
-            let m = self.mirror;
+            let wi = reflect(wo, ns);
+            let m = self.mirror & nrm.reflects(wo, wi);
             s.valid |= m;
-            s.wi.set_where(m, reflect(wo, ns));
+            s.wi.set_where(m, wi);
             s.f_cos.set_where(m, self.albedo);
             s.pdf.set_where(m, Spec::splat(1.0));
         }
+        if self.conductor.any() {
+            let wi = reflect(wo, ns);
+            let m = self.conductor & (nrm.ng.dot(wo) * nrm.ng.dot(wi)).gt(zero);
+            let c = ns.dot(wo);
+            s.valid |= m;
+            s.wi.set_where(m, wi);
+            s.f_cos
+                .set_where(m, self.n_in.zip(self.k, |e, k| fresnel_conductor(c, e, k)));
+            s.pdf.set_where(m, Spec::splat(1.0));
+        }
         if self.dielectric.any() {
-            let (ns, eta, fr) = dielectric_at(self.n_in, self.ext_ior, n, wo);
-            // Reflection: the same direction for every lane.
-            let refl = self.dielectric & uc.lt(fr.hero());
-            s.valid |= refl;
-            s.wi.set_where(refl, reflect(wo, ns));
-            s.f_cos.set_where(refl, fr);
-            s.pdf.set_where(refl, fr);
-            let (wi, ok) = refract(wo, ns, eta.hero());
-            let refr = self.dielectric & !refl & ok;
-            if refr.any() {
-                let t = Spec::splat(1.0) - fr;
-                // Lanes whose index differs from the hero's refract elsewhere: drop them.
-                let hero = eta.hero();
-                let keep = eta.map(|e| F::splat(1.0).masked(e.eq(hero)));
-                s.valid |= refr;
-                s.wi.set_where(refr, wi);
-                s.f_cos.set_where(refr, keep * t / (eta * eta));
-                s.pdf.set_where(refr, keep * t);
-            }
+            self.sample_smooth_dielectric(nrm, wo, uc, &mut s);
+        }
+        if self.rough_conductor.any() {
+            let m = self.rough_conductor;
+            let wi = rough::sample_conductor(&self.ggx(), nrm.ng, nrm.ns, wo, u);
+            let (f, p) =
+                rough::eval_conductor(&self.ggx(), &self.n_in, &self.k, nrm.ng, nrm.ns, wo, wi);
+            self.keep(&mut s, m, wi, f, p);
+        }
+        if self.rough_dielectric.any() {
+            let m = self.rough_dielectric;
+            let (ggx, ext) = (self.ggx(), self.ext_ior);
+            let wi =
+                rough::sample_dielectric(&ggx, self.n_in.hero(), ext, nrm.ng, nrm.ns, wo, uc, u);
+            let (f, p) = rough::eval_dielectric(&ggx, &self.n_in, ext, nrm.ng, nrm.ns, wo, wi);
+            self.keep(&mut s, m, wi, f, p);
         }
         s
     }
+
+    /// Records a sampled direction `wi` with values `f` and pdfs `p` for the paths of `m`
+    /// whose hero pdf is positive.
+    #[inline(always)]
+    fn keep(&self, s: &mut BsdfSamples<F>, m: F::Mask, wi: V3<F>, f: Spec<F>, p: Spec<F>) {
+        let ok = m & p.hero().gt(F::splat(0.0));
+        s.valid |= ok;
+        s.wi.set_where(ok, wi);
+        s.f_cos.set_where(ok, f);
+        s.pdf.set_where(ok, p);
+    }
+
+    /// Fresnel reflection or refraction at a smooth dielectric (the hero decides).
+    #[inline(always)]
+    fn sample_smooth_dielectric(&self, nrm: &Normals<F>, wo: V3<F>, uc: F, s: &mut BsdfSamples<F>) {
+        let (ns, eta, fr) = dielectric_at(self.n_in, self.ext_ior, nrm, wo);
+        // Reflection: the same direction for every lane.
+        let wr = reflect(wo, ns);
+        let refl = self.dielectric & uc.lt(fr.hero()) & nrm.reflects(wo, wr);
+        s.valid |= refl;
+        s.wi.set_where(refl, wr);
+        s.f_cos.set_where(refl, fr);
+        s.pdf.set_where(refl, fr);
+        let (wi, ok) = refract(wo, ns, eta.hero());
+        let refr = self.dielectric & !uc.lt(fr.hero()) & ok & nrm.crosses(wo, wi);
+        if refr.any() {
+            let t = Spec::splat(1.0) - fr;
+            // Lanes whose index differs from the hero's refract elsewhere: drop them.
+            let hero = eta.hero();
+            let keep = eta.map(|e| F::splat(1.0).masked(e.eq(hero)));
+            s.valid |= refr;
+            s.wi.set_where(refr, wi);
+            s.f_cos.set_where(refr, keep * t / (eta * eta));
+            s.pdf.set_where(refr, keep * t);
+        }
+    }
 }
 
-/// A dielectric seen along `wo` from the side of geometric normal `n`: the normal on
-/// `wo`'s side, the relative index n_t/n_i per wavelength and the per-wavelength Fresnel
-/// reflectance.
+/// Which of [`Lobes`]' masks a path goes to.
+#[derive(Debug, Clone, Copy)]
+enum LobeKind {
+    Diffuse,
+    Mirror,
+    Dielectric,
+    RoughDielectric,
+    Conductor,
+    RoughConductor,
+}
+
+fn conductor_kind(alpha: [f32; 2]) -> LobeKind {
+    match is_rough(alpha) {
+        true => LobeKind::RoughConductor,
+        false => LobeKind::Conductor,
+    }
+}
+
+/// The parameters one lobe kind sets ([`Lobes::set`]).
+struct LobeParams<F: Float> {
+    albedo: Option<Spec<F>>,
+    n_in: Option<Spec<F>>,
+    k: Option<Spec<F>>,
+    ext_ior: Option<f32>,
+    alpha: Option<[f32; 2]>,
+}
+
+impl<F: Float> LobeParams<F> {
+    fn albedo(a: Spec<F>) -> Self {
+        LobeParams {
+            albedo: Some(a),
+            n_in: None,
+            k: None,
+            ext_ior: None,
+            alpha: None,
+        }
+    }
+
+    fn ior(n: Spec<F>, ext: f32, alpha: Option<[f32; 2]>) -> Self {
+        LobeParams {
+            albedo: None,
+            n_in: Some(n),
+            k: None,
+            ext_ior: Some(ext),
+            alpha,
+        }
+    }
+
+    fn conductor(eta: Spec<F>, k: Spec<F>, alpha: [f32; 2]) -> Self {
+        LobeParams {
+            albedo: None,
+            n_in: Some(eta),
+            k: Some(k),
+            ext_ior: None,
+            alpha: is_rough(alpha).then_some(alpha),
+        }
+    }
+}
+
+/// A dielectric seen along `wo`: the shading normal on `wo`'s side (sides decided by the
+/// geometric normal), the relative index n_t/n_i per wavelength and the per-wavelength
+/// Fresnel reflectance.
 #[inline(always)]
 fn dielectric_at<F: Float>(
     n_in: Spec<F>,
     ext_ior: F,
-    n: V3<F>,
+    nrm: &Normals<F>,
     wo: V3<F>,
 ) -> (V3<F>, Spec<F>, Spec<F>) {
-    let cos_o = n.dot(wo);
+    let cos_o = nrm.ng.dot(wo);
     let entering = cos_o.gt(F::splat(0.0));
-    let ns = V3::select(entering, n, -n);
+    let ns = V3::select(entering, nrm.ns, -nrm.ns);
     let eta = n_in.map(|ni| F::select(entering, ni / ext_ior, ext_ior / ni));
-    let c = cos_o.abs();
+    // Flat paths: exactly |cos_o| (negation commutes with the dot product's rounding).
+    let c = ns.dot(wo);
     let fr = eta.map(|e| fresnel_dielectric(c, e));
     (ns, eta, fr)
 }

