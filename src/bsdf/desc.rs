@@ -57,7 +57,7 @@ impl RoughnessDesc {
             RoughnessDesc::Isotropic(a) => [a, a],
             RoughnessDesc::Anisotropic(a) => a,
         };
-        let ok = |x: f64| x == 0.0 || (f64::from(MIN_ALPHA)..=1.0).contains(&x);
+        let ok = |x: f64| x == 0.0 || (MIN_ALPHA..=1.0).contains(&(x as f32));
         if !(a.iter().all(|&x| ok(x)) && (a[0] == 0.0) == (a[1] == 0.0)) {
             return Err(key.expected(
                 format!("0 (smooth) or a GGX width in [{MIN_ALPHA}, 1] (both axes smooth or both rough)"),
@@ -251,12 +251,47 @@ impl Material {
                     reradiation: Arc::new(rr),
                 })
             }
-            other => Err(key.field("type").expected(
-                "one of \"diffuse\", \"mirror\", \"dielectric\", \"conductor\", \"fluorescent_diffuse\"",
-                format!("{other:?}"),
-            )),
+            other => {
+                let names: Vec<String> = KINDS.iter().map(|(k, _)| format!("{k:?}")).collect();
+                Err(key
+                    .field("type")
+                    .expected(format!("one of {}", names.join(", ")), format!("{other:?}")))
+            }
         }
     }
+}
+
+/// Every material kind (`type = ...`) and the keys it takes, for `stokes info` and the
+/// error on an unknown kind.
+pub const KINDS: [(&str, &str); 5] = [
+    ("diffuse", "reflectance = SPECTRUM in [0, 1]"),
+    ("mirror", "reflectance = SPECTRUM in [0, 1] (optional, default 1)"),
+    (
+        "dielectric",
+        "ior = NUMBER | { cauchy = [A, B] } | { sellmeier = { b = [..], c = [..] } } (≥ 1); \
+         ext_ior = NUMBER (optional, default 1); roughness = α | [αu, αv] (optional, 0 = smooth, \
+         else 0.001–1)",
+    ),
+    (
+        "conductor",
+        "metal = \"Au\" | \"Ag\" | \"Cu\" | \"Al\", or eta = SPECTRUM (> 0) and k = SPECTRUM (≥ 0); \
+         roughness = α | [αu, αv] (optional, 0 = smooth, else 0.001–1)",
+    ),
+    (
+        "fluorescent_diffuse",
+        "reflectance = SPECTRUM (the diagonal) and dye = { absorption, emission, quantum_yield, \
+         cell_nm }, or matrix = \"file.csv\" (reflectance optional)",
+    ),
+];
+
+/// The text `stokes info` prints without a scene.
+pub fn kinds_help() -> String {
+    let mut s = String::from("materials ([materials.NAME] with type = KIND):\n");
+    for (kind, keys) in KINDS {
+        s.push_str(&format!("  {kind:<20} {keys}\n"));
+    }
+    s.push_str("spectra: a number, a [spectra] name, D65/A/F2/F11, or a table: see the scene syntax in the README\n");
+    s
 }
 
 /// A conductor's η and k: a shipped `metal`, or `eta` and `k` spectra (η > 0 and k ≥ 0

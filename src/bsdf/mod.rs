@@ -695,10 +695,10 @@ impl<F: Float> Lobes<F> {
         if self.rough_dielectric.any() {
             let m = self.rough_dielectric;
             let (ggx, ext) = (self.ggx(), self.ext_ior);
-            let wi =
+            let (wi, ok) =
                 rough::sample_dielectric(&ggx, self.n_in.hero(), ext, nrm.ng, nrm.ns, wo, uc, u);
             let (f, p) = rough::eval_dielectric(&ggx, &self.n_in, ext, nrm.ng, nrm.ns, wo, wi);
-            self.keep(&mut s, m, wi, f, p);
+            self.keep(&mut s, m & ok, wi, f, p);
         }
         s
     }

@@ -125,7 +125,11 @@ pub fn eval_dielectric<F: Float>(
 
 /// A direction at a rough dielectric for the hero wavelength: a visible normal of `wo`
 /// (`u`), then reflection with the hero's Fresnel probability (`uc`), else refraction
-/// through that normal. [`eval_dielectric`] gives its value and pdf per lane.
+/// through that normal. [`eval_dielectric`] gives its value and pdf per lane; the mask
+/// says which samples stay on the side their event belongs to. A reflection that leaves
+/// below the macro-surface must be discarded, not evaluated: [`eval_dielectric`] would
+/// read it as a refraction, whose pdf does not count this way of reaching it, and the
+/// estimate would come out too bright (likewise a refraction that leaves above).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn sample_dielectric<F: Float>(
@@ -137,12 +141,15 @@ pub fn sample_dielectric<F: Float>(
     wo: V3<F>,
     uc: F,
     u: [F; 2],
-) -> V3<F> {
+) -> (V3<F>, F::Mask) {
+    let zero = F::splat(0.0);
     let (frame, lo, front) = frame_towards(ng, ns, wo);
     let eta = F::select(front, n_in_hero / ext, ext / n_in_hero);
     let wh = ggx.sample_visible(lo, u);
     let fr = fresnel_dielectric(lo.dot(wh), eta);
     let (wt, ok) = super::refract(lo, wh, eta);
     let refl = uc.lt(fr) | !ok;
-    frame.to_world(V3::select(refl, super::reflect(lo, wh), wt))
+    let li = V3::select(refl, super::reflect(lo, wh), wt);
+    let valid = F::select(refl, li.z, -li.z).gt(zero);
+    (frame.to_world(li), valid)
 }

@@ -27,8 +27,9 @@ pub enum Command {
     Render(RenderArgs),
     /// Print what a scene contains and which methods a render of it will use.
     Info {
-        /// The scene file (TOML).
-        scene: PathBuf,
+        /// The scene file (TOML); without one, the material kinds a scene can use and the
+        /// keys each needs.
+        scene: Option<PathBuf>,
     },
     /// Merge renders of the same scene with disjoint sample ranges (e.g. the parts of a
     /// cluster job array): the spp-weighted mean.

@@ -29,7 +29,11 @@ fn main() -> ExitCode {
         Command::Render(a) => cmd_render(&a),
         Command::Reference(a) => cmd_reference(&a),
         Command::Converge(a) => ok(cmd_converge(&a, matches.subcommand_matches("converge"))),
-        Command::Info { scene } => ok(load(&scene).map(|s| print!("{}", s.summary()))),
+        Command::Info { scene: Some(scene) } => ok(load(&scene).map(|s| print!("{}", s.summary()))),
+        Command::Info { scene: None } => {
+            print!("{}", stokes::bsdf::desc::kinds_help());
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Merge(a) => ok(cmd_merge(&a)),
         Command::Bench { what } => ok(bench::run(&what)),
     };
