@@ -105,6 +105,15 @@ fn packet_and_single_rays_give_the_same_image() {
         4,
         Dispersion::Drop,
     );
+    // Rough conductors and a dispersive rough dielectric (per-lane pdfs, no splits).
+    modes_agree(
+        "metals-and-glass",
+        &mut scene_file("metals-and-glass.toml"),
+        24,
+        24,
+        8,
+        Dispersion::Drop,
+    );
     // Splits: children wait for a free lane.
     for d in [Dispersion::Drop, Dispersion::Split] {
         modes_agree(

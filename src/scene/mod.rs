@@ -180,6 +180,14 @@ impl Scene {
             .any(|m| matches!(m, Material::Dielectric { ior, .. } if ior.is_dispersive()))
     }
 
+    /// Whether any rough dielectric has a wavelength-dependent index (its lanes stay
+    /// together: each gets its own BTDF value and pdf).
+    pub fn has_rough_dispersion(&self) -> bool {
+        self.materials
+            .iter()
+            .any(|m| matches!(m, Material::RoughDielectric { ior, .. } if ior.is_dispersive()))
+    }
+
     /// Whether any medium is present (then shadow rays look for medium boundaries).
     #[inline]
     pub fn has_media(&self) -> bool {

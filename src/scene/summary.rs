@@ -44,9 +44,14 @@ impl Scene {
         ));
         line(format!("materials   {}", self.material_names.join(", ")));
         line(format!(
-            "spectral    hwss (4 wavelengths per path){}",
+            "spectral    hwss (4 wavelengths per path){}{}",
             if self.has_dispersion() {
                 "; a dispersive dielectric splits the 4 wavelengths: --dispersion drop keeps the hero only, --dispersion split continues all four as single-wavelength paths"
+            } else {
+                ""
+            },
+            if self.has_rough_dispersion() {
+                "; a dispersive rough dielectric keeps all 4 (each wavelength its own BTDF and pdf; --dispersion does not apply to it)"
             } else {
                 ""
             }
