@@ -14,9 +14,9 @@
 //! rejected at p < 1e-6.
 
 mod common;
+use common::directions::{direction, direction_chi_square, Grid};
 use common::stats::{chi_square, perturbed, ChiSquare, Rng};
 use glam::{DVec3, Vec3, Vec4};
-use std::f64::consts::TAU;
 use std::sync::Arc;
 use stokes::bsdf::{cosine_hemisphere_pdf, sample_cosine, Ior, Lobe, Material};
 use stokes::fluoro::Reradiation;
@@ -41,20 +41,6 @@ fn ramp() -> Spectrum {
     Spectrum::Tabulated(Tabulated::new(vec![LAMBDA_MIN, LAMBDA_MAX], vec![0.2, 0.9]).unwrap())
 }
 
-/// An orthonormal frame (t, b, n) around `n`, built here independently of `bsdf::basis`.
-fn frame(n: DVec3) -> (DVec3, DVec3, DVec3) {
-    let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
-    let t = helper.cross(n).normalize();
-    (t, n.cross(t), n)
-}
-
-/// The unit direction at cosine `c` to `n` and azimuth `phi` in `frame(n)`.
-fn direction(n: DVec3, c: f64, phi: f64) -> DVec3 {
-    let (t, b, n) = frame(n);
-    let s = (1.0 - c * c).max(0.0).sqrt();
-    t * (s * phi.cos()) + b * (s * phi.sin()) + n * c
-}
-
 /// Incoming directions (towards the viewer) at these cosines to the normal; negative
 /// ones arrive from below the surface.
 const WO_COSINES: [f64; 5] = [0.95, 0.4, 0.05, -0.3, -0.9];
@@ -66,84 +52,29 @@ fn wo_at(c: f64, k: usize) -> Vec3 {
 // ---------------------------------------------------------------------------------------
 // Directions: (cos θ, φ) cells of equal solid angle around the normal.
 
-/// Cells in cos θ over [−1, 1] (an even number, so that the horizon is a cell edge).
-const N_COS: usize = 16;
-const N_PHI: usize = 32;
-const CELLS: usize = N_COS * N_PHI;
+/// 16 × 32 cells, 4 × 4 Gauss–Legendre nodes per cell.
+fn grid() -> Grid {
+    Grid {
+        n: normal().as_dvec3(),
+        n_cos: 16,
+        n_phi: 32,
+        order: 4,
+    }
+}
+
 /// Samples per chi-square test.
 const SAMPLES: usize = 200_000;
 
-/// The cell of unit direction `w`; the last cell (index CELLS) is "no sample".
-fn cell_of(n: DVec3, w: DVec3) -> usize {
-    let (t, b, n) = frame(n);
-    let c = w.dot(n).clamp(-1.0, 1.0);
-    let phi = w.dot(b).atan2(w.dot(t)).rem_euclid(TAU);
-    let i = (((c + 1.0) * 0.5 * N_COS as f64) as usize).min(N_COS - 1);
-    let j = ((phi / TAU * N_PHI as f64) as usize).min(N_PHI - 1);
-    i * N_PHI + j
-}
-
-/// The probability of each cell under solid-angle density `pdf` (4 × 4 Gauss–Legendre
-/// per cell), and last the probability of no sample, 1 − ∫ pdf, which must be 0 here.
-fn cell_probabilities(n: DVec3, pdf: impl Fn(DVec3) -> f64) -> Vec<f64> {
-    const X: [f64; 4] = [
-        -0.861_136_311_594_052_6,
-        -0.339_981_043_584_856,
-        0.339_981_043_584_856,
-        0.861_136_311_594_052_6,
-    ];
-    const W: [f64; 4] = [
-        0.347_854_845_137_453_9,
-        0.652_145_154_862_546_1,
-        0.652_145_154_862_546_1,
-        0.347_854_845_137_453_9,
-    ];
-    let (dc, dphi) = (2.0 / N_COS as f64, TAU / N_PHI as f64);
-    let mut p = vec![0.0; CELLS + 1];
-    for i in 0..N_COS {
-        for j in 0..N_PHI {
-            let (c0, phi0) = (-1.0 + i as f64 * dc, j as f64 * dphi);
-            let mut s = 0.0;
-            for (xa, wa) in X.iter().zip(W) {
-                for (xb, wb) in X.iter().zip(W) {
-                    let c = c0 + 0.5 * dc * (1.0 + xa);
-                    let phi = phi0 + 0.5 * dphi * (1.0 + xb);
-                    s += wa * wb * pdf(direction(n, c, phi));
-                }
-            }
-            // dω = dcos θ dφ.
-            p[i * N_PHI + j] = s * 0.25 * dc * dphi;
-        }
-    }
-    let total: f64 = p.iter().sum();
-    assert!((total - 1.0).abs() < 1e-6, "the pdf integrates to {total}");
-    p
-}
-
-/// Chi-square of directions from `sample` against `pdf`, with the expected distribution
-/// scaled by `wrong_by` where |cos θ| > 1/2 (1 for the real test).
-fn direction_chi_square(
-    n: DVec3,
+/// Chi-square of directions from `sample` against `pdf` (which must integrate to 1),
+/// with the expected distribution scaled by `wrong_by` where |cos θ| > 1/2 (1 for the
+/// real test).
+fn chi_square_of_directions(
     seed: u64,
-    mut sample: impl FnMut(&mut Rng) -> Option<Vec3>,
+    sample: impl FnMut(&mut Rng) -> Option<Vec3>,
     pdf: impl Fn(DVec3) -> f64,
     wrong_by: f64,
 ) -> ChiSquare {
-    let mut rng = Rng::new(seed, 3);
-    let mut counts = vec![0u64; CELLS + 1];
-    for _ in 0..SAMPLES {
-        match sample(&mut rng) {
-            Some(w) => counts[cell_of(n, w.as_dvec3())] += 1,
-            None => counts[CELLS] += 1,
-        }
-    }
-    let mut p = cell_probabilities(n, pdf);
-    if wrong_by != 1.0 {
-        let near_pole = |k: usize| k < CELLS && !(N_COS / 4..3 * N_COS / 4).contains(&(k / N_PHI));
-        p = perturbed(&p, near_pole, wrong_by);
-    }
-    let expected: Vec<f64> = p.iter().map(|q| q * SAMPLES as f64).collect();
-    chi_square(&counts, &expected)
+    direction_chi_square(&grid(), seed, SAMPLES, sample, pdf, wrong_by)
 }
 
 fn diffuse_lobes() -> [(&'static str, Lobe); 2] {
@@ -200,8 +131,7 @@ fn diffuse_chi_squares(wrong_by: f64) -> Vec<(String, ChiSquare)> {
     for (name, lobe) in diffuse_lobes() {
         for (k, &c) in WO_COSINES.iter().enumerate() {
             let wo = wo_at(c, k);
-            let r = direction_chi_square(
-                n.as_dvec3(),
+            let r = chi_square_of_directions(
                 100 + 10 * out.len() as u64,
                 |rng| checked_diffuse_sample(&lobe, wo, rng),
                 |w| f64::from(lobe.eval(n, wo, w.as_vec3()).1.x),
@@ -240,8 +170,7 @@ fn diffuse_chi_square_rejects_a_pdf_off_by_ten_percent() {
 
 fn cosine_chi_square(wrong_by: f64) -> ChiSquare {
     let n = normal();
-    direction_chi_square(
-        n.as_dvec3(),
+    chi_square_of_directions(
         7,
         |rng| Some(sample_cosine(n, rng.next_2d())),
         |w| f64::from(cosine_hemisphere_pdf(w.as_vec3().dot(n))),

@@ -2,6 +2,7 @@
 //! the command-line binary.
 #![allow(dead_code)]
 
+pub mod directions;
 pub mod oiio;
 pub mod stats;
 
