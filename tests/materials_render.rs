@@ -241,3 +241,33 @@ emission = { radiance = "D65", scale = 8 }
         assert_agree(&format!("HWSS vs mono, {name}"), a, b, 4.0);
     }
 }
+
+#[test]
+fn clear_coat_over_a_white_base_conserves_energy_and_never_gains() {
+    let want = white();
+    // ρ = 1 under a clear coat: every photon comes out again (the internal-reflection
+    // series closes); a grey base and an absorbing coat only lose; a dispersive coat too.
+    let cases = [
+        ("ior = 1.5\nbase = { type = \"diffuse\", reflectance = 1.0 }", 1.0, 1.0),
+        ("ior = { cauchy = [1.5, 30000] }\nbase = { type = \"diffuse\", reflectance = 1.0 }", 1.0, 1.0),
+        ("ior = 1.5\nbase = { type = \"diffuse\", reflectance = 0.5 }", 0.0, 0.9),
+        ("ior = 1.5\nabsorption = 2.0\nthickness = 0.1\nbase = { type = \"diffuse\", reflectance = 1.0 }", 0.0, 0.95),
+    ];
+    for (body, min_ratio, max_ratio) in cases {
+        let mut scene = scene_from(&furnace_sphere(&format!("type = \"coated\"\n{body}")));
+        let film = TestRender::at(16, 16).spp(1024).seed(9).film(&mut scene);
+        let (m, se) = region_mean(&film, &all_pixels(&film));
+        eprintln!("{body:?}: {m:?} ± {se:?}");
+        for c in 0..3 {
+            let (r, e) = (m[c] / want[c], se[c] / want[c]);
+            assert!(
+                r <= max_ratio + 4.0 * e,
+                "{body}: channel {c}: {r} ± {e} above {max_ratio}"
+            );
+            assert!(
+                r >= min_ratio - 4.0 * e,
+                "{body}: channel {c}: {r} ± {e} below {min_ratio}"
+            );
+        }
+    }
+}

@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""stokes against Mitsuba 3 on rough conductors and a rough dielectric.
+"""stokes against Mitsuba 3 on rough conductors, a rough dielectric and a coated diffuse.
 
-The measured Cornell box without its boxes, with four spheres (one UV-sphere OBJ this
+The measured Cornell box without its boxes, with five spheres (one UV-sphere OBJ this
 script writes, so both renderers trace the same triangles, flat-shaded): rough gold
-(GGX alpha 0.2), smooth silver, rough copper (alpha 0.05) and rough glass (eta 1.5,
-alpha 0.2). Metals use the measured eta + ik both renderers read from the same tables
+(GGX alpha 0.2), smooth silver, rough copper (alpha 0.05), rough glass (eta 1.5,
+alpha 0.2) and the box's green paint under a clear coat (stokes `coated`, Mitsuba
+`plastic` with `nonlinear`). Metals use the measured eta + ik both renderers read from the same tables
 (stokes: data/metals/, Mitsuba: its data/ior/*.spd). Both render the same resolution and
 spp, unbounded depth with Russian roulette; the script prints the mean linear-sRGB
 value per channel of the whole image and of each sphere's box of pixels, for both, and
@@ -39,6 +40,12 @@ SPHERES = [
      {"type": "conductor", "material": "Ag"}),
     ("copper", (150, 300, 400), 70, 'type = "conductor"\nmetal = "Cu"\nroughness = 0.05',
      {"type": "roughconductor", "material": "Cu", "distribution": "ggx", "alpha": 0.05}),
+    # A clear coat (index 1.5) over the box's green paint: Mitsuba's `plastic` with
+    # nonlinear internal scattering is the same layer model (diffuse_reflectance is
+    # filled in from the green column below).
+    ("plastic", (280, 60, 80), 60,
+     'type = "coated"\nior = 1.5\nbase = { type = "diffuse", reflectance = "green" }',
+     {"type": "plastic", "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),
 ]
 WALLS = [("floor", "white"), ("ceiling", "white"), ("back", "white"),
          ("redwall", "red"), ("greenwall", "green")]
@@ -137,6 +144,8 @@ def mitsuba_scene(out, res, spp):
     for wall, mat in WALLS:
         d[wall] = obj(DATA / f"cbox_{wall}.obj", diffuse(mat))
     for name, c, r, _, bsdf in SPHERES:
+        if bsdf["type"] == "plastic":
+            bsdf = dict(bsdf, diffuse_reflectance=cbox.spectrum(zip(refl["nm"], refl["green"])))
         # Metals are two-sided in stokes; only the outside is visible here.
         d[name] = obj(out / "sphere.obj", bsdf, to_world=T().translate(list(c)).scale(r))
     return d

@@ -1,7 +1,7 @@
 //! Materials as a scene file writes them (`[materials.NAME]`), and their parser. The
 //! syntax of every kind is in the [module documentation](super).
 
-use super::{metals, Ior, Material, MIN_ALPHA};
+use super::{metals, Coated, Ior, Material, MIN_ALPHA};
 use crate::error::{Key, KeyError};
 use crate::fluoro::{self, Reradiation};
 use crate::scene::context::reject_keys;
@@ -38,6 +38,12 @@ pub struct MaterialDesc {
     pub eta: Option<SpectrumDesc>,
     /// `conductor`: extinction coefficient (≥ 0), with `eta`.
     pub k: Option<SpectrumDesc>,
+    /// `coated`: the material under the coat (inline: a diffuse or fluorescent_diffuse).
+    pub base: Option<Box<MaterialDesc>>,
+    /// `coated`: the coat's absorption coefficient σ_a per scene unit (default 0).
+    pub absorption: Option<SpectrumDesc>,
+    /// `coated`: the coat's thickness in scene units (needed with `absorption`).
+    pub thickness: Option<f32>,
 }
 
 /// A GGX roughness: `0.2` (isotropic) or `[0.1, 0.4]` (along the two tangents).
@@ -183,12 +189,20 @@ impl Material {
         if !matches!(kind, "conductor" | "dielectric") {
             reject(&[("roughness", m.roughness.is_some())])?;
         }
+        if kind != "coated" {
+            reject(&[
+                ("base", m.base.is_some()),
+                ("absorption", m.absorption.is_some()),
+                ("thickness", m.thickness.is_some()),
+            ])?;
+        }
         let alpha = match &m.roughness {
             Some(r) => r.alpha(&key.field("roughness"))?,
             None => [0.0; 2],
         };
         let ior_keys = [("ior", m.ior.is_some()), ("ext_ior", m.ext_ior.is_some())];
         match kind {
+            "coated" => coated(m, key, ctx),
             "conductor" => {
                 reject(&ior_keys)?;
                 reject(&[("reflectance", m.reflectance.is_some())])?;
@@ -263,7 +277,7 @@ impl Material {
 
 /// Every material kind (`type = ...`) and the keys it takes, for `stokes info` and the
 /// error on an unknown kind.
-pub const KINDS: [(&str, &str); 5] = [
+pub const KINDS: [(&str, &str); 6] = [
     ("diffuse", "reflectance = SPECTRUM in [0, 1]"),
     ("mirror", "reflectance = SPECTRUM in [0, 1] (optional, default 1)"),
     (
@@ -276,6 +290,11 @@ pub const KINDS: [(&str, &str); 5] = [
         "conductor",
         "metal = \"Au\" | \"Ag\" | \"Cu\" | \"Al\", or eta = SPECTRUM (> 0) and k = SPECTRUM (≥ 0); \
          roughness = α | [αu, αv] (optional, 0 = smooth, else 0.001–1)",
+    ),
+    (
+        "coated",
+        "base = { a diffuse or fluorescent_diffuse material }; ior = index (optional, default 1.5); \
+         absorption = SPECTRUM (σ_a per scene unit, optional) with thickness = NUMBER",
     ),
     (
         "fluorescent_diffuse",
@@ -292,6 +311,52 @@ pub fn kinds_help() -> String {
     }
     s.push_str("spectra: a number, a [spectra] name, D65/A/F2/F11, or a table: see the scene syntax in the README\n");
     s
+}
+
+/// A smooth clear coat over an inline diffuse or fluorescent_diffuse `base`.
+fn coated(m: &MaterialDesc, key: &Key, ctx: &mut Context) -> Result<Material, KeyError> {
+    reject_keys(
+        key,
+        "coated",
+        "material",
+        &[
+            ("reflectance", m.reflectance.is_some()),
+            ("ext_ior", m.ext_ior.is_some()),
+        ],
+    )?;
+    let base_key = key.field("base");
+    let base = m.base.as_ref().ok_or_else(|| {
+        key.error("missing key `base` (the material under the coat) for a coated material")
+    })?;
+    let base =
+        match Material::from_desc(base, &base_key, ctx)? {
+            Material::Diffuse { reflectance } => Arc::new(Reradiation::diagonal_only(reflectance)),
+            Material::FluorescentDiffuse { reradiation } => reradiation,
+            _ => return Err(base_key.field("type").expected(
+                "\"diffuse\" or \"fluorescent_diffuse\" (the coat's model needs a Lambertian base)",
+                format!("{:?}", base.kind),
+            )),
+        };
+    let ior = match &m.ior {
+        Some(d) => Ior::from_desc(d, &key.field("ior"))?,
+        None => Ior::Constant(1.5),
+    };
+    let tau = match (&m.absorption, m.thickness) {
+        (None, None) => Spectrum::Constant(0.0),
+        (Some(a), Some(d)) => {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(key.field("thickness").expected("a thickness > 0", d));
+            }
+            let a =
+                Spectrum::from_desc(a, &key.field("absorption"), ctx, Some(Range::NonNegative))?;
+            a.scaled(d)
+        }
+        (Some(_), None) => return Err(key.error("missing key `thickness` next to `absorption`")),
+        (None, Some(_)) => {
+            return Err(key.error("`thickness` without `absorption` (a clear coat needs neither)"))
+        }
+    };
+    Ok(Material::Coated(Arc::new(Coated::new(ior, tau, base))))
 }
 
 /// A conductor's η and k: a shipped `metal`, or `eta` and `k` spectra (η > 0 and k ≥ 0

@@ -31,11 +31,13 @@
 //! dye = { absorption = { narrow_band = 440, fwhm = 60 }, emission = { narrow_band = 520, fwhm = 40 }, quantum_yield = 0.9 }
 //! ```
 
+pub mod coated;
 pub mod desc;
 pub mod metals;
 pub mod microfacet;
 pub mod rough;
 
+pub use coated::Coated;
 pub use desc::{DyeDesc, IorDesc, IorTable, MaterialDesc, SellmeierDesc};
 pub use microfacet::{fresnel_conductor, Frame, Ggx};
 
@@ -157,6 +159,8 @@ pub enum Material {
         /// GGX widths along the two tangents; [0, 0] for a smooth conductor.
         alpha: [f32; 2],
     },
+    /// A smooth clear coat over a Lambertian, possibly fluorescent, base ([`coated`]).
+    Coated(Arc<Coated>),
 }
 
 /// A direction sampled from a material (one path; [`BsdfSamples`] for W paths).
@@ -267,6 +271,9 @@ pub enum Lobe {
     RoughDielectric(Vec4, f32, [f32; 2]),
     /// Conductor: per-lane η and k, GGX widths ([0, 0]: smooth).
     Conductor(Vec4, Vec4, [f32; 2]),
+    /// The base of a coated surface seen through its coat: per-lane coat index and optical
+    /// depth (the coat's mirror branch is a [`Lobe::Mirror`]).
+    CoatedBase(Vec4, Vec4),
 }
 
 /// Whether GGX widths describe a rough surface; below this a conductor is a Dirac mirror
@@ -295,6 +302,7 @@ impl Material {
             Material::Conductor { eta, k, alpha } => {
                 Lobe::Conductor(eta.eval4(lambda), k.eval4(lambda), *alpha)
             }
+            Material::Coated(c) => Lobe::CoatedBase(c.ior.eval4(lambda), c.tau.eval4(lambda)),
         }
     }
 }
@@ -304,7 +312,7 @@ impl Lobe {
     #[inline]
     pub fn is_specular(&self) -> bool {
         match *self {
-            Lobe::Diffuse(_) | Lobe::RoughDielectric(..) => false,
+            Lobe::Diffuse(_) | Lobe::RoughDielectric(..) | Lobe::CoatedBase(..) => false,
             Lobe::Conductor(_, _, alpha) => !is_rough(alpha),
             Lobe::Mirror(_) | Lobe::Dielectric(..) => true,
         }
@@ -457,6 +465,8 @@ pub struct Lobes<F: Float> {
     pub conductor: F::Mask,
     /// The rough conductor paths.
     pub rough_conductor: F::Mask,
+    /// The paths on a coated surface's base ([`coated`]).
+    pub coated_base: F::Mask,
     /// Diffuse albedo or mirror reflectance.
     pub albedo: Spec<F>,
     /// Dielectric interior index, or conductor η, per wavelength.
@@ -467,6 +477,28 @@ pub struct Lobes<F: Float> {
     pub ext_ior: F,
     /// GGX widths of the rough paths (1 elsewhere).
     pub alpha: [F; 2],
+    /// Coat optical depth per wavelength (coated bases; coat index in `n_in`).
+    pub tau: Spec<F>,
+}
+
+/// Which paths on coated surfaces took the coat's mirror reflection, and the cosine of
+/// `wo` to their shading normal ([`coated`]: the integrator chooses before any shift).
+#[derive(Debug, Clone, Copy)]
+pub struct CoatChoice<F: Float> {
+    /// The paths that reflect off the coat.
+    pub mirror: F::Mask,
+    /// Their cos θo.
+    pub cos_o: F,
+}
+
+impl<F: Float> CoatChoice<F> {
+    /// No path on a coat.
+    pub fn none() -> CoatChoice<F> {
+        CoatChoice {
+            mirror: F::Mask::splat(false),
+            cos_o: F::splat(1.0),
+        }
+    }
 }
 
 impl<F: Float> Lobes<F> {
@@ -481,11 +513,13 @@ impl<F: Float> Lobes<F> {
             rough_dielectric: no,
             conductor: no,
             rough_conductor: no,
+            coated_base: no,
             albedo: Spec::splat(1.0),
             n_in: Spec::splat(1.0),
             k: Spec::splat(0.0),
             ext_ior: F::splat(1.0),
             alpha: [F::splat(1.0); 2],
+            tau: Spec::splat(0.0),
         }
     }
 
@@ -499,6 +533,10 @@ impl<F: Float> Lobes<F> {
             LobeKind::RoughDielectric => self.rough_dielectric |= m,
             LobeKind::Conductor => self.conductor |= m,
             LobeKind::RoughConductor => self.rough_conductor |= m,
+            LobeKind::CoatedBase => self.coated_base |= m,
+        }
+        if let Some(t) = p.tau {
+            self.tau.set_where(m, t);
         }
         if let Some(a) = p.albedo {
             self.albedo.set_where(m, a);
@@ -537,6 +575,9 @@ impl<F: Float> Lobes<F> {
                     conductor_kind(a),
                     LobeParams::conductor(one(eta), one(k), a),
                 ),
+                Lobe::CoatedBase(eta, tau) => {
+                    (LobeKind::CoatedBase, LobeParams::coated(one(eta), one(tau)))
+                }
             };
             l.set(m, kind, p);
         }
@@ -545,12 +586,14 @@ impl<F: Float> Lobes<F> {
 
     /// The lobes of the paths in `active`, path i on material `materials[mat[i]]` at its
     /// wavelengths: each material present is evaluated once, for all its paths at once.
+    /// Paths on coated surfaces get the coat's mirror or the base, as `coat` says.
     #[inline(always)]
     pub fn at(
         materials: &[Material],
         mat: &F::Arr<u32>,
         active: F::Mask,
         lambda: &Spec<F>,
+        coat: &CoatChoice<F>,
     ) -> Lobes<F> {
         let mut l = Lobes::none();
         let mut left = active;
@@ -586,6 +629,17 @@ impl<F: Float> Lobes<F> {
                     conductor_kind(*alpha),
                     LobeParams::conductor(eta.eval_w(lambda, m), k.eval_w(lambda, m), *alpha),
                 ),
+                Material::Coated(c) => {
+                    let mirror = m & coat.mirror;
+                    if mirror.any() {
+                        let w = c.reflectance(coat.cos_o, lambda, mirror) / c.p_coat(coat.cos_o);
+                        l.set(mirror, LobeKind::Mirror, LobeParams::albedo(w));
+                    }
+                    let m = m & !mirror;
+                    let (eta, tau) = c.at(lambda, m);
+                    l.set(m, LobeKind::CoatedBase, LobeParams::coated(eta, tau));
+                    continue;
+                }
             };
             l.set(m, kind, p);
         }
@@ -601,7 +655,7 @@ impl<F: Float> Lobes<F> {
     /// The paths whose every scattering event is a Dirac delta (no light sampling helps).
     #[inline(always)]
     pub fn is_specular(&self) -> F::Mask {
-        !(self.diffuse | self.rough_conductor | self.rough_dielectric)
+        !(self.diffuse | self.rough_conductor | self.rough_dielectric | self.coated_base)
     }
 
     /// The GGX distribution of the rough paths.
@@ -624,6 +678,12 @@ impl<F: Float> Lobes<F> {
         let pdf = cosine_hemisphere_pdf(c).masked(ok);
         let mut f = self.albedo * pdf;
         let mut p = Spec::broadcast(pdf);
+        if self.coated_base.any() {
+            let ok = self.coated_base & (co * ci).gt(F::splat(0.0)) & c.gt(F::splat(0.0));
+            let pdf = cosine_hemisphere_pdf(c).masked(ok);
+            f.set_where(ok, coated::crossing(c, &self.n_in, &self.tau) * pdf);
+            p.set_where(ok, Spec::broadcast(pdf));
+        }
         if self.rough_conductor.any() {
             let m = self.rough_conductor;
             let (fc, pc) =
@@ -662,6 +722,18 @@ impl<F: Float> Lobes<F> {
             s.valid |= ok;
             s.wi.set_where(ok, wi);
             s.f_cos.set_where(ok, self.albedo * pdf);
+            s.pdf.set_where(ok, Spec::broadcast(pdf));
+        }
+        if self.coated_base.any() {
+            let wi = sample_cosine_w(ns, u);
+            let c = ns.dot(wi);
+            let same_side = (nrm.ng.dot(wo) * nrm.ng.dot(wi)).gt(zero);
+            let ok = self.coated_base & c.gt(zero) & same_side;
+            let pdf = cosine_hemisphere_pdf(c);
+            s.valid |= ok;
+            s.wi.set_where(ok, wi);
+            let through = coated::crossing(c, &self.n_in, &self.tau);
+            s.f_cos.set_where(ok, through * pdf);
             s.pdf.set_where(ok, Spec::broadcast(pdf));
         }
         if self.mirror.any() {
@@ -749,6 +821,7 @@ enum LobeKind {
     RoughDielectric,
     Conductor,
     RoughConductor,
+    CoatedBase,
 }
 
 fn conductor_kind(alpha: [f32; 2]) -> LobeKind {
@@ -765,6 +838,7 @@ struct LobeParams<F: Float> {
     k: Option<Spec<F>>,
     ext_ior: Option<f32>,
     alpha: Option<[f32; 2]>,
+    tau: Option<Spec<F>>,
 }
 
 impl<F: Float> LobeParams<F> {
@@ -775,6 +849,7 @@ impl<F: Float> LobeParams<F> {
             k: None,
             ext_ior: None,
             alpha: None,
+            tau: None,
         }
     }
 
@@ -785,6 +860,7 @@ impl<F: Float> LobeParams<F> {
             k: None,
             ext_ior: Some(ext),
             alpha,
+            tau: None,
         }
     }
 
@@ -795,6 +871,18 @@ impl<F: Float> LobeParams<F> {
             k: Some(k),
             ext_ior: None,
             alpha: is_rough(alpha).then_some(alpha),
+            tau: None,
+        }
+    }
+
+    fn coated(eta: Spec<F>, tau: Spec<F>) -> Self {
+        LobeParams {
+            albedo: None,
+            n_in: Some(eta),
+            k: None,
+            ext_ior: None,
+            alpha: None,
+            tau: Some(tau),
         }
     }
 }

@@ -19,7 +19,7 @@ use super::{
     medium_after_crossing, offset, shadow_ray, shift_path, PathOptions, PathStats, NO_MEDIUM,
 };
 use crate::accel::Ray;
-use crate::bsdf::{Lobe, Lobes, Material, Normals};
+use crate::bsdf::{CoatChoice, Lobe, Lobes, Material, Normals};
 use crate::light::Lights;
 use crate::medium::phase::Hg;
 use crate::medium::tracking;
@@ -387,10 +387,18 @@ impl<F: Float> Paths<F> {
         });
         self.kill(ends);
         s &= !ends;
+        let nrm = shading_normals(scene, hit, s, ng, wo);
+        let coat = self.choose_coat(scene, &mat, s, &nrm, wo);
         for i in s.iter() {
-            if let Material::FluorescentDiffuse { reradiation } = &scene.materials[mat[i] as usize]
-            {
-                if !self.shift(i, reradiation.as_ref()) {
+            let model = match &scene.materials[mat[i] as usize] {
+                Material::FluorescentDiffuse { reradiation } => Some(reradiation.as_ref()),
+                Material::Coated(c) if !coat.mirror.get(i) && c.base.is_fluorescent() => {
+                    Some(c.base.as_ref())
+                }
+                _ => None,
+            };
+            if let Some(model) = model {
+                if !self.shift(i, model) {
                     s = s.with(i, false);
                     self.alive = self.alive.with(i, false);
                 }
@@ -399,10 +407,53 @@ impl<F: Float> Paths<F> {
         if s.none() {
             return;
         }
-        let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda);
-        let nrm = shading_normals(scene, hit, s, ng, wo);
+        let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda, &coat);
         self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, &nrm, wo, stats, shadow);
         self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, &nrm, wo, children);
+    }
+
+    /// The paths in `m` that are on coated surfaces choose between the coat's mirror
+    /// (probability P, the same for every lane) and the base; the base's paths take what
+    /// the coat does to light leaving towards `wo` at their current wavelengths (λo,
+    /// before any shift), over 1 − P, and the base's albedo when it does not fluoresce
+    /// (a fluorescent base's re-radiation comes with the shift). [`crate::bsdf::coated`].
+    #[inline(always)]
+    fn choose_coat(
+        &mut self,
+        scene: &Scene,
+        mat: &F::Arr<u32>,
+        m: F::Mask,
+        nrm: &Normals<F>,
+        wo: V3<F>,
+    ) -> CoatChoice<F> {
+        let on_coat = |i: usize| matches!(scene.materials[mat[i] as usize], Material::Coated(_));
+        let coated = m & F::Mask::from_fn(|i| m.get(i) && on_coat(i));
+        if coated.none() {
+            return CoatChoice::none();
+        }
+        let u = draw::<F>(&mut self.rng, coated);
+        let cos_o = nrm.ns.dot(wo).abs();
+        let mut mirror = F::Mask::splat(false);
+        let mut left = coated;
+        while let Some(first) = left.iter().next() {
+            let id = mat[first];
+            let same = left & F::Mask::from_fn(|i| mat[i] == id);
+            left &= !same;
+            let Material::Coated(c) = &scene.materials[id as usize] else {
+                continue;
+            };
+            let p = c.p_coat(cos_o);
+            mirror |= same & u.lt(p);
+            let base = same & !u.lt(p);
+            if base.any() {
+                let mut w = c.exit(cos_o, &self.lambda, base) / (F::splat(1.0) - p);
+                if !c.base.is_fluorescent() {
+                    w *= c.base.diagonal().eval_w(&self.lambda, base);
+                }
+                self.beta.set_where(base, self.beta * w);
+            }
+        }
+        CoatChoice { mirror, cos_o }
     }
 
     /// Crosses index-matched boundaries at `p` (normals `ng`) for the paths in `m`.
