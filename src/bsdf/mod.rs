@@ -25,6 +25,10 @@
 //! metal = "Au"                 # or eta = SPECTRUM and k = SPECTRUM (η > 0, k ≥ 0)
 //! roughness = [0.05, 0.2]      # optional, as for dielectrics; anisotropic widths follow
 //!                              # the tangents of the shading normal's frame
+//! [materials.glossy_note]
+//! type = "coated"              # a smooth clear coat over a diffuse or fluorescent_diffuse
+//! ior = 1.5                    # base; syntax and model in [`coated`]
+//! base = { type = "diffuse", reflectance = 0.8 }
 //! [materials.highlighter]
 //! type = "fluorescent_diffuse" # a dye over a reflectance, or matrix = "measured.csv"
 //! reflectance = 0.8
