@@ -7,6 +7,9 @@
 //! Embree's packet kernel, given a coherent packet of camera rays, reports the
 //! neighbouring triangle for a ray that hits an edge exactly (a few pixels in 10,000 are
 //! allowed; the rest must then pass a Z-test).
+//!
+//! Every width also hands the path the barycentrics of its hits as single rays do (0 for
+//! misses), for smooth shading.
 
 mod common;
 use common::*;
@@ -489,4 +492,86 @@ fn ray_counts_add_up_over_threads_and_modes_and_occupancy_is_a_share() {
     );
     let o = packet.occupancy().unwrap();
     assert!(o > 0.5 && o < 1.0, "occupancy {o}");
+}
+
+/// Every width reports the barycentrics of its hits (Embree's `u`, `v`) as single rays
+/// do, and 0 for misses and inactive lanes.
+#[test]
+fn hits_carry_barycentrics_at_every_width() {
+    use glam::Vec3;
+    use stokes::accel::{set_flush_denormals, Coherence};
+    use stokes::simd::{Mask, V3};
+    set_flush_denormals();
+    let scene = Scene::load(&root().join("scenes/cornell-box.toml")).unwrap();
+    let org = scene.camera.position;
+    // Directions fanning out from the camera: most hit the box, some leave through its
+    // open front.
+    let (lo, hi) = scene.bounds;
+    let (ahead, size) = ((lo + hi) / 2.0 - org, (hi - lo).length());
+    let dir = |k: usize| {
+        let a = k as f32 * 0.618_034;
+        let off = Vec3::new((a * 7.0).sin(), (a * 3.0).cos(), (a * 5.0).sin());
+        ahead + off * size * 0.2
+    };
+    fn check<F: Width>(scene: &Scene, org: Vec3, dir: &dyn Fn(usize) -> Vec3) -> (usize, usize) {
+        let (mut hits, mut misses) = (0, 0);
+        for base in (0..2000).step_by(F::WIDTH) {
+            // Every seventh lane inactive.
+            let active = F::Mask::from_fn(|k| (base + k) % 7 != 3);
+            let d = V3::<F>::from_fn(|k| dir(base + k));
+            let o = V3::<F>::from_fn(|_| org);
+            let h = F::intersect(
+                &scene.accel,
+                &o,
+                &d,
+                F::splat(f32::INFINITY),
+                active,
+                Coherence::Incoherent,
+            );
+            for k in 0..F::WIDTH {
+                let one = f32::intersect(
+                    &scene.accel,
+                    &org.into(),
+                    &dir(base + k).into(),
+                    f32::INFINITY,
+                    active.get(k),
+                    Coherence::Incoherent,
+                );
+                assert_eq!(h.valid.get(k), one.valid, "ray {}", base + k);
+                let (u, v) = (h.u.get(k), h.v.get(k));
+                if !one.valid {
+                    assert_eq!((u, v), (0.0, 0.0), "ray {}", base + k);
+                    misses += 1;
+                    continue;
+                }
+                hits += 1;
+                assert_eq!((h.geom[k], h.prim[k]), (one.geom[0], one.prim[0]));
+                assert!(
+                    (u - one.u).abs() < 1e-4 && (v - one.v).abs() < 1e-4,
+                    "ray {}: {u} {v} against {} {}",
+                    base + k,
+                    one.u,
+                    one.v
+                );
+                assert!(u >= 0.0 && v >= 0.0 && u + v <= 1.0 + 1e-6, "{u} {v}");
+            }
+        }
+        (hits, misses)
+    }
+    let (hits, misses) = check::<f32>(&scene, org, &dir);
+    assert!(hits > 1000 && misses > 285, "{hits} hits, {misses} misses");
+    let spread = (0..2000).filter(|&k| {
+        let h = f32::intersect(
+            &scene.accel,
+            &org.into(),
+            &dir(k).into(),
+            f32::INFINITY,
+            true,
+            Coherence::Incoherent,
+        );
+        h.valid && h.u > 0.01 && h.v > 0.01
+    });
+    assert!(spread.count() > 500, "barycentrics away from the corners");
+    check::<F4>(&scene, org, &dir);
+    check::<F8>(&scene, org, &dir);
 }

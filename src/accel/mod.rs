@@ -634,6 +634,10 @@ pub struct Hits4 {
     pub geom: [u32; 4],
     /// Triangle indices.
     pub prim: [u32; 4],
+    /// Barycentric coordinates of vertex 1 (Embree's `u`).
+    pub u: [f32; 4],
+    /// Barycentric coordinates of vertex 2 (Embree's `v`).
+    pub v: [f32; 4],
 }
 
 impl RayHit4 {
@@ -862,6 +866,8 @@ impl Scene {
             ng: [h.Ng_x, h.Ng_y, h.Ng_z],
             geom: std::array::from_fn(|k| if active[k] { h.geomID[k] } else { u32::MAX }),
             prim: h.primID,
+            u: h.u,
+            v: h.v,
         }
     }
 
@@ -891,6 +897,10 @@ pub struct Hits8 {
     pub geom: [u32; 8],
     /// Triangle indices.
     pub prim: [u32; 8],
+    /// Barycentric coordinates of vertex 1.
+    pub u: [f32; 8],
+    /// Barycentric coordinates of vertex 2.
+    pub v: [f32; 8],
 }
 
 /// Embree's 8-wide ray-hit packet, 32-byte aligned as `rtcIntersect8` requires.
@@ -962,6 +972,8 @@ impl Scene {
                 }
             }),
             prim: h.primID,
+            u: h.u,
+            v: h.v,
         }
     }
 

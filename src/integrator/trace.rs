@@ -31,6 +31,11 @@ pub struct Hits<F: Float> {
     pub geom: F::Arr<u32>,
     /// Triangle indices.
     pub prim: F::Arr<u32>,
+    /// Barycentric coordinate of the triangle's vertex 1 (Embree's `u`; 0 for a miss),
+    /// for [`crate::scene::Geometry::shading_normal`] and [`crate::scene::Geometry::uv`].
+    pub u: F,
+    /// Barycentric coordinate of vertex 2 (Embree's `v`; 0 for a miss).
+    pub v: F,
 }
 
 /// A lane width the renderer traces with: how W rays go to Embree.
@@ -87,6 +92,8 @@ impl Width for f32 {
                 ng: h.ng.into(),
                 geom: [h.geom_id],
                 prim: [h.prim_id],
+                u: h.u,
+                v: h.v,
             },
             None => Hits {
                 valid: false,
@@ -94,6 +101,8 @@ impl Width for f32 {
                 ng: V3::splat(Vec3::Z),
                 geom: [u32::MAX],
                 prim: [0],
+                u: 0.0,
+                v: 0.0,
             },
         }
     }
@@ -133,12 +142,17 @@ macro_rules! packet_width {
                 let valid = Lanes::from_fn(|k| active.get(k));
                 let h = accel.$intersect(&rays, valid, coherence);
                 let f = |v| $f(v);
+                let hit = Mask::from_fn(|k| h.geom[k] != u32::MAX);
+                // Embree leaves a miss's barycentrics unwritten.
+                let zero = <$f as Float>::splat(0.0);
                 Hits {
-                    valid: Mask::from_fn(|k| h.geom[k] != u32::MAX),
+                    valid: hit,
                     t: f(h.t.into()),
                     ng: V3::new(f(h.ng[0].into()), f(h.ng[1].into()), f(h.ng[2].into())),
                     geom: h.geom,
                     prim: h.prim,
+                    u: <$f as Float>::select(hit, f(h.u.into()), zero),
+                    v: <$f as Float>::select(hit, f(h.v.into()), zero),
                 }
             }
 

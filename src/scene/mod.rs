@@ -10,6 +10,7 @@
 pub mod context;
 pub mod desc;
 pub mod obj;
+pub mod ply;
 pub mod shapes;
 mod summary;
 
@@ -22,9 +23,10 @@ use crate::medium::Homogeneous;
 use crate::spectrum::{Spectrum, SpectrumDesc};
 use context::list;
 use desc::SceneDesc;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 pub use context::Context;
 pub use desc::RenderDesc;
@@ -44,6 +46,9 @@ pub struct Geometry {
     pub exterior: Option<u32>,
     /// An index-matched medium boundary: no material, no emission, rays pass.
     pub null_interface: bool,
+    /// The mesh's per-vertex normals and texture coordinates, if it has either (shared:
+    /// `Geometry` is cloned with the scene's tables).
+    pub shading: Option<Arc<Shading>>,
 }
 
 impl Geometry {
@@ -51,6 +56,67 @@ impl Geometry {
     #[inline]
     pub fn is_null_interface(&self) -> bool {
         self.null_interface
+    }
+
+    /// The smooth-shading normal at barycentrics `(u, v)` of triangle `prim` (Embree's
+    /// convention: `u` weighs vertex 1, `v` vertex 2): the interpolated vertex normals,
+    /// normalised, on the front side (that of the geometric normal `(v1−v0)×(v2−v0)`,
+    /// for well-made meshes). `None` for a mesh without normals, and where the
+    /// interpolation is zero or not finite: then shade with the geometric normal.
+    #[inline]
+    pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Option<Vec3> {
+        let s = self.shading.as_deref()?;
+        let [n0, n1, n2] = s.corners(s.normals.as_deref()?, prim)?;
+        let n = Vec3::from(n0) * (1.0 - u - v) + Vec3::from(n1) * u + Vec3::from(n2) * v;
+        n.try_normalize()
+    }
+
+    /// The texture coordinates at barycentrics `(u, v)` of triangle `prim`, interpolated
+    /// like [`Geometry::shading_normal`]; `None` for a mesh without them.
+    #[inline]
+    pub fn uv(&self, prim: u32, u: f32, v: f32) -> Option<Vec2> {
+        let s = self.shading.as_deref()?;
+        let [t0, t1, t2] = s.corners(s.uvs.as_deref()?, prim)?;
+        let t = Vec2::from(t0) * (1.0 - u - v) + Vec2::from(t1) * u + Vec2::from(t2) * v;
+        t.is_finite().then_some(t)
+    }
+}
+
+/// The per-vertex data of a mesh that shading interpolates over its triangles.
+#[derive(Debug, Clone, Default)]
+pub struct Shading {
+    /// The triangles, as attached to Embree (its `prim` ids index them).
+    pub indices: Vec<[u32; 3]>,
+    /// Per-vertex normals (any length; normalised after interpolation).
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Per-vertex texture coordinates.
+    pub uvs: Option<Vec<[f32; 2]>>,
+}
+
+impl Shading {
+    /// The shading data of `mesh`, or `None` if it has neither normals nor texture
+    /// coordinates (then its indices are not kept: Embree has its own copy).
+    pub fn from_mesh(mesh: shapes::TriMesh) -> Option<Shading> {
+        if mesh.normals.is_none() && mesh.uvs.is_none() {
+            return None;
+        }
+        Some(Shading {
+            indices: mesh.indices,
+            normals: mesh.normals,
+            uvs: mesh.uvs,
+        })
+    }
+
+    /// The values of `data` at the three corners of triangle `prim`; `None` if an
+    /// index is out of range (a malformed `Shading` never panics).
+    #[inline(always)]
+    fn corners<T: Copy>(&self, data: &[T], prim: u32) -> Option<[T; 3]> {
+        let [a, b, c] = *self.indices.get(prim as usize)?;
+        Some([
+            *data.get(a as usize)?,
+            *data.get(b as usize)?,
+            *data.get(c as usize)?,
+        ])
     }
 }
 
@@ -420,6 +486,7 @@ impl Builder<'_> {
                     interior,
                     exterior,
                     null_interface,
+                    shading: Shading::from_mesh(mesh).map(Arc::new),
                 });
             }
         }
@@ -518,5 +585,81 @@ impl Builder<'_> {
             });
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn geometry(shading: Option<Shading>) -> Geometry {
+        Geometry {
+            name: "test".into(),
+            material: None,
+            triangles: 1,
+            interior: None,
+            exterior: None,
+            null_interface: false,
+            shading: shading.map(Arc::new),
+        }
+    }
+
+    #[test]
+    fn shading_normal_and_uv_interpolate_embrees_barycentrics() {
+        // Vertex 3 is unused; triangle 1 lists the corners in another order.
+        let g = geometry(Some(Shading {
+            indices: vec![[0, 1, 2], [2, 0, 1]],
+            normals: Some(vec![
+                [0.0, 0.0, 2.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 3.0, 0.0],
+                [9.0; 3],
+            ]),
+            uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [5.0; 2]]),
+        }));
+        let (u, v) = (0.2, 0.5);
+        // (1−u−v)·n0 + u·n1 + v·n2, normalised: u weighs vertex 1, v vertex 2.
+        let want = Vec3::new(0.2, 1.5, 0.6).normalize();
+        let n = g.shading_normal(0, u, v).unwrap();
+        assert!((n - want).length() < 1e-6, "{n} {want}");
+        assert!((g.uv(0, u, v).unwrap() - Vec2::new(0.2, 0.5)).length() < 1e-6);
+        // Triangle 1 = (2, 0, 1): 0.3·(0, 3, 0) + 0.2·(0, 0, 2) + 0.5·(1, 0, 0).
+        let want = Vec3::new(0.5, 0.9, 0.4).normalize();
+        let n = g.shading_normal(1, 0.2, 0.5).unwrap();
+        assert!((n - want).length() < 1e-6, "{n} {want}");
+        // At the corners, the vertex's own normal.
+        assert_eq!(g.shading_normal(0, 0.0, 0.0), Some(Vec3::Z));
+        assert_eq!(g.shading_normal(0, 1.0, 0.0), Some(Vec3::X));
+        assert_eq!(g.shading_normal(0, 0.0, 1.0), Some(Vec3::Y));
+        // A triangle past the end, or no data: none.
+        assert_eq!(g.shading_normal(2, u, v), None);
+        assert_eq!(geometry(None).shading_normal(0, u, v), None);
+        assert_eq!(geometry(None).uv(0, u, v), None);
+    }
+
+    #[test]
+    fn degenerate_normals_give_none() {
+        let shading = |normals: Vec<[f32; 3]>| Shading {
+            indices: vec![[0, 1, 2]],
+            normals: Some(normals),
+            uvs: None,
+        };
+        // Opposite normals cancel halfway between vertices 0 and 1.
+        let g = geometry(Some(shading(vec![
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 1.0, 0.0],
+        ])));
+        assert_eq!(g.shading_normal(0, 0.5, 0.0), None);
+        assert!(g.shading_normal(0, 0.25, 0.0).is_some());
+        let g = geometry(Some(shading(vec![
+            [f32::NAN, 0.0, 1.0],
+            [0.0; 3],
+            [0.0; 3],
+        ])));
+        assert_eq!(g.shading_normal(0, 0.0, 0.0), None);
+        assert_eq!(g.uv(0, 0.2, 0.2), None);
+        // From a mesh: none at all without normals and texture coordinates.
+        assert!(Shading::from_mesh(shapes::quad(Vec3::ZERO, Vec3::X, Vec3::Y)).is_none());
     }
 }
