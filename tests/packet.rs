@@ -117,6 +117,16 @@ fn packet_and_single_rays_give_the_same_image() {
         8,
         Dispersion::Drop,
     );
+    // Smooth shading normals, coated fluorescent surfaces (the coat's choice before the
+    // shift), rough gold and glass.
+    modes_agree(
+        "product-shot",
+        &mut scene_file("product-shot.toml"),
+        24,
+        24,
+        8,
+        Dispersion::Drop,
+    );
     // Splits: children wait for a free lane.
     for d in [Dispersion::Drop, Dispersion::Split] {
         modes_agree(

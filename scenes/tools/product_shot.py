@@ -17,7 +17,7 @@ HEAD = """# {title}
 [camera]
 position = [0, 22, -48]
 look_at = [0, 3, 0]
-fov = 32
+fov = 36
 resolution = [512, 512]
 
 [render]
@@ -125,7 +125,7 @@ material = "cap"
 
 [[shapes]]
 type = "sphere"
-center = [7, 4, -2]
+center = [4, 4, -3]
 radius = 4
 stacks = 48
 smooth = true
@@ -133,7 +133,7 @@ material = "gold"
 
 [[shapes]]
 type = "sphere"
-center = [17, 5, 6]
+center = [12, 5, 5]
 radius = 5
 stacks = 48
 smooth = true
@@ -155,7 +155,7 @@ type = "quad"                          # a 365 nm UV lamp above and in front
 origin = [-20, 45, -30]
 edge_u = [40, 0, 0]
 edge_v = [0, 0, 30]
-emission = { radiance = { narrow_band = 365, fwhm = 10 }, scale = 12 }
+emission = { radiance = { narrow_band = 365, fwhm = 10 }, scale = 1500 }
 
 [[shapes]]
 type = "quad"                          # a dim D65 fill from the right

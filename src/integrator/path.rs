@@ -806,7 +806,8 @@ impl<F: Float> Paths<F> {
 }
 
 /// The normals at the surface hits of the paths in `m` (geometric normals `ng`, unit):
-/// the meshes' interpolated shading normals where they have them ([`Normals::new`]).
+/// the meshes' interpolated shading normals where they have them ([`Normals::new`]),
+/// turned to the geometric normal's side (a file whose normals point inwards still shades).
 #[inline(always)]
 fn shading_normals<F: Float>(
     scene: &Scene,
@@ -815,8 +816,27 @@ fn shading_normals<F: Float>(
     ng: V3<F>,
     wo: V3<F>,
 ) -> Normals<F> {
-    let _ = (scene, hit, m, wo);
-    Normals::flat(ng)
+    let n: F::Arr<Option<Vec3>> = Lanes::from_fn(|i| match m.get(i) {
+        true => scene.geometries[hit.geom[i] as usize].shading_normal(
+            hit.prim[i],
+            hit.u.get(i),
+            hit.v.get(i),
+        ),
+        false => None,
+    });
+    let has = F::Mask::from_fn(|i| n[i].is_some());
+    if has.none() {
+        return Normals::flat(ng);
+    }
+    let ns = V3::from_fn(|i| {
+        let g = ng.path(i);
+        match n[i] {
+            Some(v) if v.dot(g) < 0.0 => -v,
+            Some(v) => v,
+            None => g,
+        }
+    });
+    Normals::new(ng, ns, has, wo)
 }
 
 impl Paths<f32> {

@@ -267,9 +267,11 @@ impl Scene {
 
     /// Whether any material fluoresces (then the shifting method matters).
     pub fn has_fluorescence(&self) -> bool {
-        self.materials.iter().any(
-            |m| matches!(m, Material::FluorescentDiffuse { reradiation } if reradiation.is_fluorescent()),
-        )
+        self.materials.iter().any(|m| match m {
+            Material::FluorescentDiffuse { reradiation } => reradiation.is_fluorescent(),
+            Material::Coated(c) => c.base.is_fluorescent(),
+            _ => false,
+        })
     }
 
     /// A name for reports: the file stem.
