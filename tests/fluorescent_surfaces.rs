@@ -198,41 +198,53 @@ fn closed_form(scene: &Scene, lambda_o: f32) -> f64 {
     (rr.d(lambda_o) * light.eval(lambda_o)) as f64 + integral
 }
 
+/// The mean radiance at `lambda_o` along `ray` over `n` mono paths (seeded by `seed`, the
+/// wavelength and the sample index) and its standard error.
+fn mono_estimate(
+    scene: &Scene,
+    ray: stokes::accel::Ray,
+    lambda_o: f32,
+    n: u64,
+    seed: u64,
+) -> (f64, f64) {
+    let opts = PathOptions {
+        method: Method {
+            spectral: Spectral::Mono,
+            ..Method::default()
+        }
+        .with_tracking(Tracking::Classic),
+        max_depth: -1,
+    };
+    let (mut sum, mut sq) = (0.0f64, 0.0f64);
+    let mut stats = PathStats::default();
+    for i in 0..n {
+        let l = radiance(
+            scene,
+            ray,
+            glam::Vec4::splat(lambda_o),
+            &opts,
+            Pcg32::for_sample(seed, lambda_o as u64, i),
+            LazyStream::new(seed, lambda_o as u64, i),
+            &mut stats,
+        );
+        let v = l.x as f64;
+        sum += v;
+        sq += v * v;
+    }
+    let mean = sum / n as f64;
+    (
+        mean,
+        ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt(),
+    )
+}
+
 #[test]
 fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
     let scene = scene_from(&plane_scene());
     let ray = scene.camera.ray(8.0, 8.0);
     for lambda_o in [450.0f32, 505.0, 530.0, 560.0, 620.0] {
         let want = closed_form(&scene, lambda_o);
-        let n = 40_000;
-        let (mut sum, mut sq) = (0.0f64, 0.0f64);
-        let mut stats = PathStats::default();
-        for i in 0..n {
-            let rng = Pcg32::for_sample(3, lambda_o as u64, i);
-            let shift = LazyStream::new(3, lambda_o as u64, i);
-            let opts = PathOptions {
-                method: Method {
-                    spectral: Spectral::Mono,
-                    ..Method::default()
-                }
-                .with_tracking(Tracking::Classic),
-                max_depth: -1,
-            };
-            let l = radiance(
-                &scene,
-                ray,
-                glam::Vec4::splat(lambda_o),
-                &opts,
-                rng,
-                shift,
-                &mut stats,
-            );
-            let v = l.x as f64;
-            sum += v;
-            sq += v * v;
-        }
-        let mean = sum / n as f64;
-        let se = ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt();
+        let (mean, se) = mono_estimate(&scene, ray, lambda_o, 40_000, 3);
         let z = (mean - want) / se.max(1e-12);
         eprintln!("λo = {lambda_o}: {mean:.5} ± {se:.5}, closed form {want:.5}, z = {z:.2}");
         assert!(
@@ -529,33 +541,7 @@ fn coated_fluorescent_plane_matches_the_layer_model_per_wavelength() {
     let cos_o = f64::from(ray.dir.normalize().z.abs());
     for lambda_o in [450.0f32, 505.0, 530.0, 560.0, 620.0] {
         let want = coated_closed_form(&scene, lambda_o, cos_o);
-        let n = 160_000;
-        let (mut sum, mut sq) = (0.0f64, 0.0f64);
-        let mut stats = PathStats::default();
-        for i in 0..n {
-            let opts = PathOptions {
-                method: Method {
-                    spectral: Spectral::Mono,
-                    ..Method::default()
-                }
-                .with_tracking(Tracking::Classic),
-                max_depth: -1,
-            };
-            let l = radiance(
-                &scene,
-                ray,
-                glam::Vec4::splat(lambda_o),
-                &opts,
-                Pcg32::for_sample(5, lambda_o as u64, i),
-                LazyStream::new(5, lambda_o as u64, i),
-                &mut stats,
-            );
-            let v = l.x as f64;
-            sum += v;
-            sq += v * v;
-        }
-        let mean = sum / n as f64;
-        let se = ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt();
+        let (mean, se) = mono_estimate(&scene, ray, lambda_o, 160_000, 5);
         let z = (mean - want) / se.max(1e-12);
         eprintln!(
             "coated, λo = {lambda_o}: {mean:.5} ± {se:.5}, layer model {want:.5}, z = {z:.2}"

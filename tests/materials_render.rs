@@ -16,9 +16,7 @@ mod common;
 use common::*;
 use glam::{Vec3, Vec4};
 use stokes::bsdf::Material;
-use stokes::color::xyz_to_linear_srgb;
 use stokes::method::Spectral;
-use stokes::spectrum::{spectrum_to_xyz, Spectrum};
 
 /// A plate of `material` (TOML body) at y = 0 facing +y, seen at `theta` degrees from its
 /// normal through a 2° field of view, inside a box whose walls emit 1 on both sides.
@@ -77,15 +75,9 @@ fn albedo(material: &Material, theta: f32) -> f64 {
     sum
 }
 
-fn white() -> [f64; 3] {
-    xyz_to_linear_srgb(spectrum_to_xyz(&Spectrum::Constant(1.0)))
-        .to_array()
-        .map(f64::from)
-}
-
 #[test]
 fn perfect_rough_reflector_returns_its_single_scattering_albedo() {
-    let expected_rgb = white();
+    let expected_rgb = white_rgb();
     for (alpha, theta) in [(0.3f32, 0.0f32), (0.3, 60.0), (0.8, 60.0)] {
         let body = format!("type = \"conductor\"\neta = 1.0\nk = 10000\nroughness = {alpha}");
         let scene_text = plate_scene(&body, theta);
@@ -129,36 +121,12 @@ fn rough_conductor_at_tiny_roughness_renders_as_the_smooth_one() {
 
 /// A sphere of `material` (TOML body) inside a box whose walls emit 1 on both sides.
 fn furnace_sphere(material: &str) -> String {
-    format!(
-        r#"
-[camera]
-position = [0, 0, -1.8]
-look_at = [0, 0, 0]
-fov = 60
-resolution = [16, 16]
-
-[materials.sphere]
-{material}
-
-[[shapes]]
-type = "box"
-min = [-2, -2, -2]
-max = [2, 2, 2]
-emission = {{ radiance = 1.0, two_sided = true }}
-
-[[shapes]]
-type = "sphere"
-center = [0, 0, 0]
-radius = 1
-stacks = 32
-material = "sphere"
-"#
-    )
+    enclosure(material, "1.0", 32, "")
 }
 
 #[test]
 fn dielectric_spheres_in_a_furnace_never_gain_energy() {
-    let want = white();
+    let want = white_rgb();
     // GGX's single scattering loses 1–5 % per interaction from outside but 10–23 % from
     // inside glass at α = 0.3 (directional albedo by quadrature and by sampling, which
     // agree); a path bounces inside several times, so the rough spheres keep about three
@@ -244,7 +212,7 @@ emission = { radiance = "D65", scale = 8 }
 
 #[test]
 fn clear_coat_over_a_white_base_conserves_energy_and_never_gains() {
-    let want = white();
+    let want = white_rgb();
     // ρ = 1 under a clear coat: every photon comes out again (the internal-reflection
     // series closes); a grey base and an absorbing coat only lose; a dispersive coat too.
     let cases = [

@@ -7,34 +7,14 @@ use stokes::color::xyz_to_linear_srgb;
 use stokes::method::Spectral;
 use stokes::spectrum::{reflectance_to_xyz, spectrum_to_xyz, Spectrum};
 
-/// A sphere of the given reflectance inside a black box whose walls emit `radiance`
-/// from both sides.
+/// A diffuse sphere of the given reflectance inside a black box whose walls emit
+/// `radiance` from both sides.
 fn enclosure_scene(reflectance: &str, radiance: &str) -> String {
-    format!(
-        r#"
-[camera]
-position = [0, 0, -1.8]
-look_at = [0, 0, 0]
-fov = 60
-resolution = [32, 32]
-
-[materials.sphere]
-type = "diffuse"
-reflectance = {reflectance}
-
-[[shapes]]
-type = "box"
-min = [-2, -2, -2]
-max = [2, 2, 2]
-emission = {{ radiance = {radiance}, two_sided = true }}
-
-[[shapes]]
-type = "sphere"
-center = [0, 0, 0]
-radius = 1
-stacks = 32
-material = "sphere"
-"#
+    enclosure(
+        &format!("type = \"diffuse\"\nreflectance = {reflectance}"),
+        radiance,
+        32,
+        "",
     )
 }
 

@@ -5,50 +5,21 @@
 
 mod common;
 use common::*;
-use stokes::color::xyz_to_linear_srgb;
-use stokes::spectrum::{spectrum_to_xyz, Spectrum};
-
-fn white() -> [f64; 3] {
-    xyz_to_linear_srgb(spectrum_to_xyz(&Spectrum::Constant(1.0)))
-        .to_array()
-        .map(f64::from)
-}
 
 /// A white diffuse sphere of `stacks` rings (`smooth` shading or not) in a box whose
 /// walls emit 1 on both sides.
 fn furnace(stacks: u32, smooth: bool) -> String {
-    format!(
-        r#"
-[camera]
-position = [0, 0, -1.8]
-look_at = [0, 0, 0]
-fov = 60
-resolution = [16, 16]
-
-[materials.sphere]
-type = "diffuse"
-reflectance = 1.0
-
-[[shapes]]
-type = "box"
-min = [-2, -2, -2]
-max = [2, 2, 2]
-emission = {{ radiance = 1.0, two_sided = true }}
-
-[[shapes]]
-type = "sphere"
-center = [0, 0, 0]
-radius = 1
-stacks = {stacks}
-smooth = {smooth}
-material = "sphere"
-"#
+    enclosure(
+        "type = \"diffuse\"\nreflectance = 1.0",
+        "1.0",
+        stacks,
+        &format!("smooth = {smooth}"),
     )
 }
 
 #[test]
 fn smooth_low_poly_sphere_in_a_white_furnace_returns_the_emitted_radiance() {
-    let want = white();
+    let want = white_rgb();
     for stacks in [12u32, 24] {
         let mut scene = scene_from(&furnace(stacks, true));
         let film = TestRender::at(16, 16).spp(2048).seed(4).film(&mut scene);

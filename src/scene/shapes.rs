@@ -455,9 +455,27 @@ pub fn uv_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> TriMesh
     positions.push((centre - Vec3::Y * radius).into()); // south pole
     let south = positions.len() as u32 - 1;
     let ring = |i: u32, j: u32| 1 + (i - 1) * slices + (j % slices);
+    let indices = sphere_triangles(stacks, slices, |_| 0, ring, |_| south);
+    TriMesh {
+        positions,
+        indices,
+        ..TriMesh::default()
+    }
+}
+
+/// The triangles of a UV sphere, facing outwards: a fan at each pole and two triangles
+/// per cell between rings. `north(j)`/`south(j)` are the pole vertex of slice j, `ring(i,
+/// j)` the vertex of ring i (1..stacks) at column j (0..=slices).
+fn sphere_triangles(
+    stacks: u32,
+    slices: u32,
+    north: impl Fn(u32) -> u32,
+    ring: impl Fn(u32, u32) -> u32,
+    south: impl Fn(u32) -> u32,
+) -> Vec<[u32; 3]> {
     let mut indices = Vec::with_capacity((2 * slices * (stacks - 1)) as usize);
     for j in 0..slices {
-        indices.push([0, ring(1, j + 1), ring(1, j)]);
+        indices.push([north(j), ring(1, j + 1), ring(1, j)]);
     }
     for i in 1..stacks - 1 {
         for j in 0..slices {
@@ -468,13 +486,9 @@ pub fn uv_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> TriMesh
         }
     }
     for j in 0..slices {
-        indices.push([south, ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
+        indices.push([south(j), ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
     }
-    TriMesh {
-        positions,
-        indices,
-        ..TriMesh::default()
-    }
+    indices
 }
 
 /// [`uv_sphere`] with exact radial normals and texture coordinates (u = φ/2π, v = θ/π):
@@ -523,21 +537,7 @@ pub fn smooth_sphere(centre: Vec3, radius: f32, stacks: u32, slices: u32) -> Tri
         vertex(-Vec3::Y, [(j as f32 + 0.5) / slices as f32, 1.0]);
     }
     let ring = |i: u32, j: u32| slices + (i - 1) * (slices + 1) + j;
-    let mut indices = Vec::with_capacity((2 * slices * (stacks - 1)) as usize);
-    for j in 0..slices {
-        indices.push([j, ring(1, j + 1), ring(1, j)]);
-    }
-    for i in 1..stacks - 1 {
-        for j in 0..slices {
-            let (a, b) = (ring(i, j), ring(i, j + 1));
-            let (c, d) = (ring(i + 1, j), ring(i + 1, j + 1));
-            indices.push([a, b, d]);
-            indices.push([a, d, c]);
-        }
-    }
-    for j in 0..slices {
-        indices.push([south + j, ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
-    }
+    let indices = sphere_triangles(stacks, slices, |j| j, ring, |j| south + j);
     TriMesh {
         positions,
         indices,

@@ -210,3 +210,44 @@ pub fn assert_agree(what: &str, a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3])
 pub fn s(p: &Path) -> String {
     p.display().to_string()
 }
+
+/// A unit sphere of `material` (a TOML material body) with `stacks` rings and `extra`
+/// sphere keys, inside a black box whose walls emit `radiance` from both sides: the
+/// furnace and uniform-enclosure scenes.
+pub fn enclosure(material: &str, radiance: &str, stacks: u32, extra: &str) -> String {
+    format!(
+        r#"
+[camera]
+position = [0, 0, -1.8]
+look_at = [0, 0, 0]
+fov = 60
+resolution = [16, 16]
+
+[materials.sphere]
+{material}
+
+[[shapes]]
+type = "box"
+min = [-2, -2, -2]
+max = [2, 2, 2]
+emission = {{ radiance = {radiance}, two_sided = true }}
+
+[[shapes]]
+type = "sphere"
+center = [0, 0, 0]
+radius = 1
+stacks = {stacks}
+material = "sphere"
+{extra}
+"#
+    )
+}
+
+/// Linear sRGB of a constant spectrum of 1 (what a white furnace returns).
+pub fn white_rgb() -> [f64; 3] {
+    stokes::color::xyz_to_linear_srgb(stokes::spectrum::spectrum_to_xyz(
+        &stokes::spectrum::Spectrum::Constant(1.0),
+    ))
+    .to_array()
+    .map(f64::from)
+}
