@@ -18,7 +18,7 @@ use common::directions::{direction, direction_chi_square, Grid};
 use common::stats::{chi_square, perturbed, ChiSquare, Rng};
 use glam::{DVec3, Vec3, Vec4};
 use std::sync::Arc;
-use stokes::bsdf::{cosine_hemisphere_pdf, sample_cosine, Ior, Lobe, Material};
+use stokes::bsdf::{cosine_hemisphere_pdf, sample_cosine, Coated, Ior, Lobe, Material};
 use stokes::fluoro::Reradiation;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
 
@@ -77,10 +77,20 @@ fn chi_square_of_directions(
     direction_chi_square(&grid(), seed, SAMPLES, sample, pdf, wrong_by)
 }
 
-fn diffuse_lobes() -> [(&'static str, Lobe); 2] {
+fn diffuse_lobes() -> [(&'static str, Lobe); 3] {
     let fluorescent = Material::FluorescentDiffuse {
         reradiation: Arc::new(Reradiation::diagonal_only(Spectrum::Constant(0.6))),
     };
+    // The base of a coated surface as seen through a dispersive, absorbing coat (the
+    // coat's mirror branch is a mirror lobe, tested below).
+    let coated = Material::Coated(Arc::new(Coated::new(
+        Ior::Cauchy {
+            a: 1.5,
+            b: 10_000.0,
+        },
+        ramp(),
+        Arc::new(Reradiation::diagonal_only(Spectrum::Constant(0.6))),
+    )));
     [
         (
             "diffuse",
@@ -90,6 +100,7 @@ fn diffuse_lobes() -> [(&'static str, Lobe); 2] {
             .at(LAMBDA),
         ),
         ("fluorescent diffuse", fluorescent.at(LAMBDA)),
+        ("coated base", coated.at(LAMBDA)),
     ]
 }
 
