@@ -449,6 +449,21 @@ mod tests {
         }
     }
 
+    /// The mean over 360–830 nm, not a value at one end: a 550 nm line of unit integral
+    /// averages 1/470 per nm (light selection by power depends on it).
+    #[test]
+    fn mean_radiance_averages_over_the_range() {
+        let line = Emitter {
+            radiance: Spectrum::narrow_band(550.0, 10.0).unwrap(),
+            scale: 2.0,
+            two_sided: false,
+        };
+        let want = 2.0 / (LAMBDA_MAX - LAMBDA_MIN);
+        let got = line.mean_radiance();
+        assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
+        assert_eq!(emitter().mean_radiance(), 1.0);
+    }
+
     #[test]
     fn an_emitting_triangle_of_infinite_area_is_refused_and_nothing_added() {
         let mut lights = Lights::default();
