@@ -119,3 +119,65 @@ fn inward_file_normals_shade_like_outward_ones() {
     );
     assert_agree("outward vs inward file normals", ma, mb, 4.0);
 }
+
+/// A 4 × 4 gold plate at y = 0 (an OBJ quad with texture coordinates whose u runs along
+/// +x, or along +z when `u_along_z`) with GGX widths `roughness`, seen from straight above;
+/// a small light above, offset along +x from the mirror direction.
+fn brushed_plate(dir: &std::path::Path, u_along_z: bool, roughness: &str) -> stokes::scene::Scene {
+    let vt = match u_along_z {
+        false => "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n",
+        true => "vt 0 0\nvt 0 1\nvt 1 1\nvt 1 0\n",
+    };
+    let obj = format!("v -2 0 -2\nv 2 0 -2\nv 2 0 2\nv -2 0 2\n{vt}f 1/1 3/3 2/2\nf 1/1 4/4 3/3\n");
+    std::fs::write(dir.join("plate.obj"), obj).unwrap();
+    let text = format!(
+        r#"
+[camera]
+position = [0, 4, 0.001]
+look_at = [0, 0, 0]
+fov = 20
+resolution = [16, 16]
+
+[materials.gold]
+type = "conductor"
+metal = "Au"
+roughness = {roughness}
+
+[[shapes]]
+type = "obj"
+file = "plate.obj"
+material = "gold"
+
+[[shapes]]
+type = "quad"
+origin = [1.2, 3, -0.2]
+edge_u = [0.4, 0, 0]
+edge_v = [0, 0, 0.4]
+emission = {{ radiance = 50.0 }}
+"#
+    );
+    let path = dir.join("brushed.toml");
+    std::fs::write(&path, text).unwrap();
+    stokes::scene::Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn anisotropic_roughness_follows_the_texture_u_direction() {
+    let dir = scratch("shading-brushed");
+    let mean = |u_along_z: bool, roughness: &str, seed: u64| {
+        let mut scene = brushed_plate(&dir, u_along_z, roughness);
+        assert!(scene.geometries[0].tangent(0).is_some());
+        let film = TestRender::at(16, 16).spp(256).seed(seed).film(&mut scene);
+        region_mean(&film, &all_pixels(&film))
+    };
+    // Narrow along u, wide along v: the light off to +x is caught when v runs along x.
+    let (along_x, along_z) = (mean(false, "[0.05, 0.5]", 1), mean(true, "[0.05, 0.5]", 2));
+    eprintln!("u along x: {along_x:?}; u along z: {along_z:?}");
+    assert!(
+        along_z.0[0] > 2.0 * along_x.0[0],
+        "the wide axis should follow v: {along_z:?} vs {along_x:?}"
+    );
+    // Isotropic roughness does not care which way u runs.
+    let (a, b) = (mean(false, "0.3", 3), mean(true, "0.3", 4));
+    assert_agree("isotropic, u along x vs z", a, b, 4.0);
+}

@@ -13,7 +13,7 @@
 //! uniform direction on the spherical cap z > −ω_z. Its density is Heitz's
 //! D_ω(m) = G₁(ω)·max(0, ω·m)·D(m)/ω_z (Heitz 2018), which [`Ggx::pdf_visible`] returns.
 
-use crate::simd::{math, Float, V3};
+use crate::simd::{math, Float, Mask, V3};
 use std::f32::consts::PI;
 
 /// An orthonormal frame around a unit normal: world ↔ local (z along the normal).
@@ -33,6 +33,25 @@ impl<F: Float> Frame<F> {
     pub fn new(n: V3<F>) -> Frame<F> {
         let (t, b) = n.basis();
         Frame { t, b, n }
+    }
+
+    /// The frame around `n` whose first tangent is `t` made orthogonal to `n`, for the
+    /// paths of `has` where that is not degenerate; [`Frame::new`]'s elsewhere.
+    #[inline(always)]
+    pub fn oriented(n: V3<F>, t: V3<F>, has: F::Mask) -> Frame<F> {
+        let basis = Frame::new(n);
+        if has.none() {
+            return basis;
+        }
+        let tp = t - n * n.dot(t);
+        let len2 = tp.length_squared();
+        let ok = has & len2.gt(F::splat(1e-12));
+        let tp = tp * (F::splat(1.0) / len2.max(F::splat(1e-12)).sqrt());
+        Frame {
+            t: V3::select(ok, tp, basis.t),
+            b: V3::select(ok, n.cross(tp), basis.b),
+            n,
+        }
     }
 
     /// World → local.

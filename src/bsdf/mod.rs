@@ -24,7 +24,7 @@
 //! type = "conductor"           # metal = "Au", "Ag", "Cu" or "Al" (measured, data/metals/),
 //! metal = "Au"                 # or eta = SPECTRUM and k = SPECTRUM (η > 0, k ≥ 0)
 //! roughness = [0.05, 0.2]      # optional, as for dielectrics; anisotropic widths follow
-//!                              # the tangents of the shading normal's frame
+//!                              # the mesh's texture u and v (∂p/∂u), else an arbitrary frame
 //! [materials.glossy_note]
 //! type = "coated"              # a smooth clear coat over a diffuse or fluorescent_diffuse
 //! ior = 1.5                    # base; syntax and model in [`coated`]
@@ -401,6 +401,11 @@ pub struct Normals<F: Float> {
     /// The paths whose shading normal differs from the geometric one: only these pay
     /// for the extra side tests, so flat meshes take exactly the arithmetic they always did.
     pub shaded: F::Mask,
+    /// Unit first tangent (the mesh's ∂p/∂u) where `has_t`: the axis of the first GGX
+    /// width; elsewhere the frame of [`V3::basis`] decides.
+    pub t: V3<F>,
+    /// The paths with a tangent.
+    pub has_t: F::Mask,
 }
 
 impl<F: Float> Normals<F> {
@@ -411,6 +416,19 @@ impl<F: Float> Normals<F> {
             ng,
             ns: ng,
             shaded: F::Mask::splat(false),
+            t: V3::splat(Vec3::ZERO),
+            has_t: F::Mask::splat(false),
+        }
+    }
+
+    /// The same normals with first tangents `t` where `has` (anisotropic lobes turn
+    /// with the texture's u direction).
+    #[inline(always)]
+    pub fn with_tangents(self, t: V3<F>, has: F::Mask) -> Normals<F> {
+        Normals {
+            t,
+            has_t: has,
+            ..self
         }
     }
 
@@ -425,6 +443,7 @@ impl<F: Float> Normals<F> {
             ng,
             ns: V3::select(shaded, ns, ng),
             shaded,
+            ..Normals::flat(ng)
         }
     }
 
@@ -435,6 +454,8 @@ impl<F: Float> Normals<F> {
             ng: self.ng.path(i).into(),
             ns: self.ns.path(i).into(),
             shaded: self.shaded.get(i),
+            t: self.t.path(i).into(),
+            has_t: self.has_t.get(i),
         }
     }
 
@@ -690,15 +711,14 @@ impl<F: Float> Lobes<F> {
         }
         if self.rough_conductor.any() {
             let m = self.rough_conductor;
-            let (fc, pc) =
-                rough::eval_conductor(&self.ggx(), &self.n_in, &self.k, n, nrm.ns, wo, wi);
+            let (fc, pc) = rough::eval_conductor(&self.ggx(), &self.n_in, &self.k, nrm, wo, wi);
             f.set_where(m, fc);
             p.set_where(m, pc);
         }
         if self.rough_dielectric.any() {
             let m = self.rough_dielectric;
             let (fd, pd) =
-                rough::eval_dielectric(&self.ggx(), &self.n_in, self.ext_ior, n, nrm.ns, wo, wi);
+                rough::eval_dielectric(&self.ggx(), &self.n_in, self.ext_ior, nrm, wo, wi);
             f.set_where(m, fd);
             p.set_where(m, pd);
         }
@@ -763,17 +783,15 @@ impl<F: Float> Lobes<F> {
         }
         if self.rough_conductor.any() {
             let m = self.rough_conductor;
-            let wi = rough::sample_conductor(&self.ggx(), nrm.ng, nrm.ns, wo, u);
-            let (f, p) =
-                rough::eval_conductor(&self.ggx(), &self.n_in, &self.k, nrm.ng, nrm.ns, wo, wi);
+            let wi = rough::sample_conductor(&self.ggx(), nrm, wo, u);
+            let (f, p) = rough::eval_conductor(&self.ggx(), &self.n_in, &self.k, nrm, wo, wi);
             self.keep(&mut s, m, wi, f, p);
         }
         if self.rough_dielectric.any() {
             let m = self.rough_dielectric;
             let (ggx, ext) = (self.ggx(), self.ext_ior);
-            let (wi, ok) =
-                rough::sample_dielectric(&ggx, self.n_in.hero(), ext, nrm.ng, nrm.ns, wo, uc, u);
-            let (f, p) = rough::eval_dielectric(&ggx, &self.n_in, ext, nrm.ng, nrm.ns, wo, wi);
+            let (wi, ok) = rough::sample_dielectric(&ggx, self.n_in.hero(), ext, nrm, wo, uc, u);
+            let (f, p) = rough::eval_dielectric(&ggx, &self.n_in, ext, nrm, wo, wi);
             self.keep(&mut s, m & ok, wi, f, p);
         }
         s

@@ -16,15 +16,17 @@
 //! Side tests use the geometric normal `ng` (no light through back faces), the lobe
 //! itself the shading frame: both must agree on which side ωi is, or the value is 0.
 
-use super::fresnel_dielectric;
 use super::microfacet::{fresnel_conductor, Frame, Ggx};
+use super::{fresnel_dielectric, Normals};
 use crate::simd::{Float, Mask, Spec, V3};
 
-/// The shading frame oriented to `wo`'s side of the surface, and `wo` in it.
+/// The shading frame oriented to `wo`'s side of the surface (its first tangent the mesh's
+/// ∂p/∂u where it has one), and `wo` in it.
 #[inline(always)]
-fn frame_towards<F: Float>(ng: V3<F>, ns: V3<F>, wo: V3<F>) -> (Frame<F>, V3<F>, F::Mask) {
-    let front = ng.dot(wo).gt(F::splat(0.0));
-    let frame = Frame::new(V3::select(front, ns, -ns));
+fn frame_towards<F: Float>(nrm: &Normals<F>, wo: V3<F>) -> (Frame<F>, V3<F>, F::Mask) {
+    let front = nrm.ng.dot(wo).gt(F::splat(0.0));
+    let n = V3::select(front, nrm.ns, -nrm.ns);
+    let frame = Frame::oriented(n, nrm.t, nrm.has_t);
     (frame, frame.to_local(wo), front)
 }
 
@@ -35,15 +37,14 @@ pub fn eval_conductor<F: Float>(
     ggx: &Ggx<F>,
     eta: &Spec<F>,
     k: &Spec<F>,
-    ng: V3<F>,
-    ns: V3<F>,
+    nrm: &Normals<F>,
     wo: V3<F>,
     wi: V3<F>,
 ) -> (Spec<F>, Spec<F>) {
     let zero = F::splat(0.0);
-    let (frame, lo, _) = frame_towards(ng, ns, wo);
+    let (frame, lo, _) = frame_towards(nrm, wo);
     let li = frame.to_local(wi);
-    let ok = (ng.dot(wo) * ng.dot(wi)).gt(zero) & lo.z.gt(zero) & li.z.gt(zero);
+    let ok = (nrm.ng.dot(wo) * nrm.ng.dot(wi)).gt(zero) & lo.z.gt(zero) & li.z.gt(zero);
     let wh = (lo + li).normalize();
     let c = lo.dot(wh);
     let d_g = ggx.d(wh) * ggx.g2(lo, li) / (F::splat(4.0) * lo.z);
@@ -55,14 +56,8 @@ pub fn eval_conductor<F: Float>(
 /// A direction off a rough conductor from the visible normals of `wo` (`u`): the local
 /// sample turned to world space. [`eval_conductor`] gives its value and pdf.
 #[inline(always)]
-pub fn sample_conductor<F: Float>(
-    ggx: &Ggx<F>,
-    ng: V3<F>,
-    ns: V3<F>,
-    wo: V3<F>,
-    u: [F; 2],
-) -> V3<F> {
-    let (frame, lo, _) = frame_towards(ng, ns, wo);
+pub fn sample_conductor<F: Float>(ggx: &Ggx<F>, nrm: &Normals<F>, wo: V3<F>, u: [F; 2]) -> V3<F> {
+    let (frame, lo, _) = frame_towards(nrm, wo);
     let wh = ggx.sample_visible(lo, u);
     frame.to_world(super::reflect(lo, wh))
 }
@@ -76,18 +71,17 @@ pub fn eval_dielectric<F: Float>(
     ggx: &Ggx<F>,
     n_in: &Spec<F>,
     ext: F,
-    ng: V3<F>,
-    ns: V3<F>,
+    nrm: &Normals<F>,
     wo: V3<F>,
     wi: V3<F>,
 ) -> (Spec<F>, Spec<F>) {
     let zero = F::splat(0.0);
     let one = F::splat(1.0);
-    let (frame, lo, front) = frame_towards(ng, ns, wo);
+    let (frame, lo, front) = frame_towards(nrm, wo);
     let li = frame.to_local(wi);
     // n_t/n_i per lane, i on wo's side.
     let eta = n_in.map(|n| F::select(front, n / ext, ext / n));
-    let side = ng.dot(wo) * ng.dot(wi);
+    let side = nrm.ng.dot(wo) * nrm.ng.dot(wi);
     let g2 = ggx.g2(lo, li);
     let valid = lo.z.gt(zero);
 
@@ -136,14 +130,13 @@ pub fn sample_dielectric<F: Float>(
     ggx: &Ggx<F>,
     n_in_hero: F,
     ext: F,
-    ng: V3<F>,
-    ns: V3<F>,
+    nrm: &Normals<F>,
     wo: V3<F>,
     uc: F,
     u: [F; 2],
 ) -> (V3<F>, F::Mask) {
     let zero = F::splat(0.0);
-    let (frame, lo, front) = frame_towards(ng, ns, wo);
+    let (frame, lo, front) = frame_towards(nrm, wo);
     let eta = F::select(front, n_in_hero / ext, ext / n_in_hero);
     let wh = ggx.sample_visible(lo, u);
     let fr = fresnel_dielectric(lo.dot(wh), eta);

@@ -807,7 +807,8 @@ impl<F: Float> Paths<F> {
 
 /// The normals at the surface hits of the paths in `m` (geometric normals `ng`, unit):
 /// the meshes' interpolated shading normals where they have them ([`Normals::new`]),
-/// turned to the geometric normal's side (a file whose normals point inwards still shades).
+/// turned to the geometric normal's side (a file whose normals point inwards still shades),
+/// and their ∂p/∂u tangents where they have texture coordinates.
 #[inline(always)]
 fn shading_normals<F: Float>(
     scene: &Scene,
@@ -824,19 +825,28 @@ fn shading_normals<F: Float>(
         ),
         false => None,
     });
-    let has = F::Mask::from_fn(|i| n[i].is_some());
-    if has.none() {
-        return Normals::flat(ng);
-    }
-    let ns = V3::from_fn(|i| {
-        let g = ng.path(i);
-        match n[i] {
-            Some(v) if v.dot(g) < 0.0 => -v,
-            Some(v) => v,
-            None => g,
-        }
+    let t: F::Arr<Option<Vec3>> = Lanes::from_fn(|i| match m.get(i) {
+        true => scene.geometries[hit.geom[i] as usize].tangent(hit.prim[i]),
+        false => None,
     });
-    Normals::new(ng, ns, has, wo)
+    let has = F::Mask::from_fn(|i| n[i].is_some());
+    let has_t = F::Mask::from_fn(|i| t[i].is_some());
+    let mut nrm = Normals::flat(ng);
+    if has.any() {
+        let ns = V3::from_fn(|i| {
+            let g = ng.path(i);
+            match n[i] {
+                Some(v) if v.dot(g) < 0.0 => -v,
+                Some(v) => v,
+                None => g,
+            }
+        });
+        nrm = Normals::new(ng, ns, has, wo);
+    }
+    if has_t.any() {
+        nrm = nrm.with_tangents(V3::from_fn(|i| t[i].unwrap_or(Vec3::X)), has_t);
+    }
+    nrm
 }
 
 impl Paths<f32> {

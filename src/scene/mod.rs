@@ -71,6 +71,15 @@ impl Geometry {
         n.try_normalize()
     }
 
+    /// The unit tangent ∂p/∂u of triangle `prim` (the direction of increasing texture u),
+    /// or `None` for a mesh without texture coordinates or a degenerate triangle.
+    #[inline]
+    pub fn tangent(&self, prim: u32) -> Option<Vec3> {
+        let s = self.shading.as_deref()?;
+        let t = *s.tangents.as_deref()?.get(prim as usize)?;
+        Vec3::from(t).try_normalize()
+    }
+
     /// The texture coordinates at barycentrics `(u, v)` of triangle `prim`, interpolated
     /// like [`Geometry::shading_normal`]; `None` for a mesh without them.
     #[inline]
@@ -91,6 +100,9 @@ pub struct Shading {
     pub normals: Option<Vec<[f32; 3]>>,
     /// Per-vertex texture coordinates.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Per triangle, ∂p/∂u from the texture coordinates (zero where they are
+    /// degenerate): the first tangent of anisotropic lobes.
+    pub tangents: Option<Vec<[f32; 3]>>,
 }
 
 impl Shading {
@@ -100,10 +112,22 @@ impl Shading {
         if mesh.normals.is_none() && mesh.uvs.is_none() {
             return None;
         }
+        let tangents = mesh.uvs.as_ref().map(|uvs| {
+            mesh.indices
+                .iter()
+                .map(|t| {
+                    dp_du(
+                        t.map(|i| mesh.positions[i as usize]),
+                        t.map(|i| uvs[i as usize]),
+                    )
+                })
+                .collect()
+        });
         Some(Shading {
             indices: mesh.indices,
             normals: mesh.normals,
             uvs: mesh.uvs,
+            tangents,
         })
     }
 
@@ -117,6 +141,22 @@ impl Shading {
             *data.get(b as usize)?,
             *data.get(c as usize)?,
         ])
+    }
+}
+
+/// ∂p/∂u of a triangle with corners `p` and texture coordinates `t`: the solution of
+/// e₁ = ∂p/∂u·Δu₁ + ∂p/∂v·Δv₁, e₂ likewise; zero when the texture coordinates are
+/// degenerate or it does not come out finite.
+fn dp_du(p: [[f32; 3]; 3], t: [[f32; 2]; 3]) -> [f32; 3] {
+    let [p0, p1, p2] = p.map(Vec3::from);
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let (du1, dv1) = (t[1][0] - t[0][0], t[1][1] - t[0][1]);
+    let (du2, dv2) = (t[2][0] - t[0][0], t[2][1] - t[0][1]);
+    let det = du1 * dv2 - du2 * dv1;
+    let d = (e1 * dv2 - e2 * dv1) / det;
+    match det != 0.0 && d.is_finite() {
+        true => d.into(),
+        false => [0.0; 3],
     }
 }
 
@@ -592,6 +632,20 @@ impl Builder<'_> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn dp_du_follows_the_texture_coordinates() {
+        let p = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 3.0]];
+        assert_eq!(
+            dp_du(p, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+            [2.0, 0.0, 0.0]
+        );
+        assert_eq!(
+            dp_du(p, [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]]),
+            [0.0, 0.0, 3.0]
+        );
+        assert_eq!(dp_du(p, [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]), [0.0; 3]);
+    }
     use super::*;
 
     fn geometry(shading: Option<Shading>) -> Geometry {
@@ -610,6 +664,7 @@ mod tests {
     fn shading_normal_and_uv_interpolate_embrees_barycentrics() {
         // Vertex 3 is unused; triangle 1 lists the corners in another order.
         let g = geometry(Some(Shading {
+            tangents: None,
             indices: vec![[0, 1, 2], [2, 0, 1]],
             normals: Some(vec![
                 [0.0, 0.0, 2.0],
@@ -642,6 +697,7 @@ mod tests {
     #[test]
     fn degenerate_normals_give_none() {
         let shading = |normals: Vec<[f32; 3]>| Shading {
+            tangents: None,
             indices: vec![[0, 1, 2]],
             normals: Some(normals),
             uvs: None,
