@@ -322,39 +322,20 @@ impl Lobe {
         }
     }
 
-    /// f·|cos θᵢ| and the per-lane pdf of sampling `wi` ([`Lobes::eval`] for one path
-    /// whose shading normal is the geometric normal `n`).
+    /// f·|cos θᵢ| and the per-lane pdf of sampling `wi` ([`Lobes::eval`] for one flat
+    /// path with normal `n`).
     #[inline]
     pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3) -> (Vec4, Vec4) {
-        self.eval_shaded(n, n, wo, wi)
-    }
-
-    /// [`Lobe::eval`] with a shading normal `ns` beside the geometric normal `ng`.
-    #[inline]
-    pub fn eval_shaded(&self, ng: Vec3, ns: Vec3, wo: Vec3, wi: Vec3) -> (Vec4, Vec4) {
-        let nrm = Normals::<f32>::new(ng.into(), ns.into(), ng != ns, wo.into());
+        let nrm = Normals::<f32>::flat(n.into());
         let (f, pdf) = Lobes::<f32>::one(*self).eval(&nrm, wo.into(), wi.into());
         (f.into(), pdf.into())
     }
 
-    /// Samples a direction with the hero's wavelength ([`Lobes::sample`] for one path
-    /// whose shading normal is the geometric normal `n`).
+    /// Samples a direction with the hero's wavelength ([`Lobes::sample`] for one flat path
+    /// with normal `n`).
     #[inline]
     pub fn sample(&self, n: Vec3, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSample> {
-        self.sample_shaded(n, n, wo, uc, u)
-    }
-
-    /// [`Lobe::sample`] with a shading normal `ns` beside the geometric normal `ng`.
-    #[inline]
-    pub fn sample_shaded(
-        &self,
-        ng: Vec3,
-        ns: Vec3,
-        wo: Vec3,
-        uc: f32,
-        u: [f32; 2],
-    ) -> Option<BsdfSample> {
-        let nrm = Normals::<f32>::new(ng.into(), ns.into(), ng != ns, wo.into());
+        let nrm = Normals::<f32>::flat(n.into());
         let s = Lobes::<f32>::one(*self).sample(&nrm, wo.into(), uc, u);
         s.valid.then(|| BsdfSample {
             wi: s.wi.into(),
@@ -514,6 +495,8 @@ pub struct CoatChoice<F: Float> {
     pub mirror: F::Mask,
     /// Their cos θo.
     pub cos_o: F,
+    /// The probability with which they chose the mirror ([`Coated::p_coat`]).
+    pub p: F,
 }
 
 impl<F: Float> CoatChoice<F> {
@@ -522,6 +505,7 @@ impl<F: Float> CoatChoice<F> {
         CoatChoice {
             mirror: F::Mask::splat(false),
             cos_o: F::splat(1.0),
+            p: F::splat(1.0),
         }
     }
 }
@@ -657,7 +641,7 @@ impl<F: Float> Lobes<F> {
                 Material::Coated(c) => {
                     let mirror = m & coat.mirror;
                     if mirror.any() {
-                        let w = c.reflectance(coat.cos_o, lambda, mirror) / c.p_coat(coat.cos_o);
+                        let w = c.reflectance(coat.cos_o, lambda, mirror) / coat.p;
                         l.set(mirror, LobeKind::Mirror, LobeParams::albedo(w));
                     }
                     let m = m & !mirror;

@@ -434,6 +434,7 @@ impl<F: Float> Paths<F> {
         let u = draw::<F>(&mut self.rng, coated);
         let cos_o = nrm.ns.dot(wo).abs();
         let mut mirror = F::Mask::splat(false);
+        let mut p_mirror = F::splat(1.0);
         let mut left = coated;
         while let Some(first) = left.iter().next() {
             let id = mat[first];
@@ -443,6 +444,7 @@ impl<F: Float> Paths<F> {
                 continue;
             };
             let p = c.p_coat(cos_o);
+            p_mirror = F::select(same, p, p_mirror);
             mirror |= same & u.lt(p);
             let base = same & !u.lt(p);
             if base.any() {
@@ -453,7 +455,11 @@ impl<F: Float> Paths<F> {
                 self.beta.set_where(base, self.beta * w);
             }
         }
-        CoatChoice { mirror, cos_o }
+        CoatChoice {
+            mirror,
+            cos_o,
+            p: p_mirror,
+        }
     }
 
     /// Crosses index-matched boundaries at `p` (normals `ng`) for the paths in `m`.
@@ -817,25 +823,27 @@ fn shading_normals<F: Float>(
     ng: V3<F>,
     wo: V3<F>,
 ) -> Normals<F> {
-    let n: F::Arr<Option<Vec3>> = Lanes::from_fn(|i| match m.get(i) {
-        true => scene.geometries[hit.geom[i] as usize].shading_normal(
-            hit.prim[i],
-            hit.u.get(i),
-            hit.v.get(i),
-        ),
-        false => None,
+    // One look at each hit's geometry: its shading normal and tangent, if it has them.
+    let nt: F::Arr<(Option<Vec3>, Option<Vec3>)> = Lanes::from_fn(|i| {
+        if !m.get(i) {
+            return (None, None);
+        }
+        let g = &scene.geometries[hit.geom[i] as usize];
+        match g.shading {
+            None => (None, None),
+            Some(_) => (
+                g.shading_normal(hit.prim[i], hit.u.get(i), hit.v.get(i)),
+                g.tangent(hit.prim[i]),
+            ),
+        }
     });
-    let t: F::Arr<Option<Vec3>> = Lanes::from_fn(|i| match m.get(i) {
-        true => scene.geometries[hit.geom[i] as usize].tangent(hit.prim[i]),
-        false => None,
-    });
-    let has = F::Mask::from_fn(|i| n[i].is_some());
-    let has_t = F::Mask::from_fn(|i| t[i].is_some());
+    let has = F::Mask::from_fn(|i| nt[i].0.is_some());
+    let has_t = F::Mask::from_fn(|i| nt[i].1.is_some());
     let mut nrm = Normals::flat(ng);
     if has.any() {
         let ns = V3::from_fn(|i| {
             let g = ng.path(i);
-            match n[i] {
+            match nt[i].0 {
                 Some(v) if v.dot(g) < 0.0 => -v,
                 Some(v) => v,
                 None => g,
@@ -844,7 +852,7 @@ fn shading_normals<F: Float>(
         nrm = Normals::new(ng, ns, has, wo);
     }
     if has_t.any() {
-        nrm = nrm.with_tangents(V3::from_fn(|i| t[i].unwrap_or(Vec3::X)), has_t);
+        nrm = nrm.with_tangents(V3::from_fn(|i| nt[i].1.unwrap_or(Vec3::X)), has_t);
     }
     nrm
 }
