@@ -96,6 +96,16 @@ fn check_output(option: &str, path: &Path) -> Result<()> {
     if path.is_dir() {
         return bad("a file to write", "a directory".into());
     }
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if option == "-o" && !is_exr {
+        // An image named .png that holds OpenEXR data fools every viewer.
+        return bad(
+            "a file name ending in .exr (stokes writes OpenEXR; --png adds a PNG preview)",
+            format!("{:?}", path.file_name().unwrap_or_default()),
+        );
+    }
     // The nearest ancestor that exists: the directory to write in, or the one in which
     // the missing directories will be created.
     let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
@@ -433,8 +443,9 @@ mod tests {
             check_outputs(&[("-o", &ok), ("--png", &dir.join("a.png"))]).map_err(|e| e.to_string()),
             Ok(())
         );
-        let bad: [(&[(&str, &Path)], &str); 5] = [
+        let bad: [(&[(&str, &Path)], &str); 6] = [
             (&[("-o", &dir.join("sub"))], "-o "),
+            (&[("-o", &dir.join("img.png"))], "ending in .exr"),
             (&[("-o", &dir.join("file/img.exr"))], "found a file"),
             (&[("--png", &dir.join("file/new/img.png"))], "--png"),
             (&[("-o", &ok), ("--stats-json", &ok)], "the file -o writes"),

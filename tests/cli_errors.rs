@@ -254,7 +254,17 @@ fn unwritable_outputs_fail_before_rendering() {
         ),
         (
             vec!["-o".into(), s(&dir.join("x.png")), "--png".into()],
-            ["--png", "the file -o writes"],
+            ["-o", "a file name ending in .exr"],
+        ),
+        (
+            vec![
+                "-o".into(),
+                s(&dir.join("x.exr")),
+                "--png".into(),
+                "--stats-json".into(),
+                s(&dir.join("x.png")),
+            ],
+            ["--stats-json", "the file --png writes"],
         ),
         (
             vec![
