@@ -18,7 +18,7 @@ use common::directions::{direction, direction_chi_square, Grid};
 use common::stats::{chi_square, perturbed, ChiSquare, Rng};
 use glam::{DVec3, Vec3, Vec4};
 use std::sync::Arc;
-use stokes::bsdf::{cosine_hemisphere_pdf, sample_cosine, Coated, Ior, Lobe, Material};
+use stokes::bsdf::{cosine_hemisphere_pdf, sample_cosine, CoatBase, Coated, Ior, Lobe, Material};
 use stokes::fluoro::Reradiation;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
 
@@ -77,7 +77,7 @@ fn chi_square_of_directions(
     direction_chi_square(&grid(), seed, SAMPLES, sample, pdf, wrong_by)
 }
 
-fn diffuse_lobes() -> [(&'static str, Lobe); 3] {
+fn diffuse_lobes() -> [(&'static str, Lobe); 4] {
     let fluorescent = Material::FluorescentDiffuse {
         reradiation: Arc::new(Reradiation::diagonal_only(Spectrum::Constant(0.6))),
     };
@@ -89,7 +89,22 @@ fn diffuse_lobes() -> [(&'static str, Lobe); 3] {
             b: 10_000.0,
         },
         ramp(),
-        Arc::new(Reradiation::diagonal_only(Spectrum::Constant(0.6))),
+        0.0,
+        CoatBase::Lambertian(Arc::new(Reradiation::diagonal_only(Spectrum::Constant(
+            0.6,
+        )))),
+    )));
+    // The same under a rough coat (the crossings become 1 − E of GGX).
+    let rough_coated = Material::Coated(Arc::new(Coated::new(
+        Ior::Cauchy {
+            a: 1.5,
+            b: 10_000.0,
+        },
+        ramp(),
+        0.3,
+        CoatBase::Lambertian(Arc::new(Reradiation::diagonal_only(Spectrum::Constant(
+            0.6,
+        )))),
     )));
     [
         (
@@ -101,6 +116,7 @@ fn diffuse_lobes() -> [(&'static str, Lobe); 3] {
         ),
         ("fluorescent diffuse", fluorescent.at(LAMBDA)),
         ("coated base", coated.at(LAMBDA)),
+        ("rough-coated base", rough_coated.at(LAMBDA)),
     ]
 }
 

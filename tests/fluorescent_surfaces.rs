@@ -507,7 +507,7 @@ fn coated_closed_form(scene: &Scene, lambda_o: f32, cos_o: f64) -> f64 {
     let Material::Coated(c) = &scene.materials[0] else {
         panic!("expected the coated material first")
     };
-    let rr = c.base.clone();
+    let rr = c.reradiation().expect("a Lambertian base").clone();
     let light = Spectrum::Scaled(Box::new(illuminant("D65").unwrap()), 0.01);
     // T on the integration grid, once per test binary.
     static T: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();

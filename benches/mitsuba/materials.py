@@ -1,11 +1,16 @@
 #!/usr/bin/env python3
-"""stokes against Mitsuba 3 on rough conductors, a rough dielectric and a coated diffuse.
+"""stokes against Mitsuba 3 on rough conductors, a rough dielectric and coated diffuses.
 
-The measured Cornell box without its boxes, with five spheres (one UV-sphere OBJ this
+The measured Cornell box without its boxes, with six spheres (one UV-sphere OBJ this
 script writes, so both renderers trace the same triangles, flat-shaded): rough gold
 (GGX alpha 0.2), smooth silver, rough copper (alpha 0.05), rough glass (eta 1.5,
-alpha 0.2) and the box's green paint under a clear coat (stokes `coated`, Mitsuba
-`plastic` with `nonlinear`). Metals use the measured eta + ik both renderers read from the same tables
+alpha 0.2), the box's green paint under a clear coat (stokes `coated`, Mitsuba
+`plastic` with `nonlinear`) and its red paint under a rough coat (alpha 0.2; Mitsuba
+`roughplastic` with `nonlinear`: the same model except for the coat's internal
+reflectance r, which stokes scales to reciprocity, 0.584 at eta 1.5, alpha 0.2, and
+Mitsuba keeps single-scattering, 0.496, so that stokes' red paint (rho about 0.6-0.7
+in the red) is expected 8-11 % brighter in its diffuse part) and a black base under the
+same rough coat (the coat's GGX reflection alone: the same model but for the masking). Metals use the measured eta + ik both renderers read from the same tables
 (stokes: data/metals/, Mitsuba: its data/ior/*.spd). Both render the same resolution and
 spp, unbounded depth with Russian roulette; the script prints the mean linear-sRGB
 value per channel of the whole image and of each sphere's box of pixels, for both, and
@@ -45,7 +50,17 @@ SPHERES = [
     # filled in from the green column below).
     ("plastic", (280, 60, 80), 60,
      'type = "coated"\nior = 1.5\nbase = { type = "diffuse", reflectance = "green" }',
-     {"type": "plastic", "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),
+     {"type": "plastic", "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True, "_paint": "green"}),
+    ("roughplastic", (430, 330, 300), 60,
+     'type = "coated"\nior = 1.5\nroughness = 0.2\nbase = { type = "diffuse", reflectance = "red" }',
+     {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2, "int_ior": 1.5,
+      "ext_ior": 1.0, "nonlinear": True, "_paint": "red"}),
+    # The same rough coat over black: only the coat's own GGX reflection, where the two
+    # models are the same but for the masking term.
+    ("roughcoat", (120, 400, 250), 50,
+     'type = "coated"\nior = 1.5\nroughness = 0.2\nbase = { type = "diffuse", reflectance = 0 }',
+     {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2, "int_ior": 1.5,
+      "ext_ior": 1.0, "nonlinear": True, "diffuse_reflectance": 0.0}),
 ]
 WALLS = [("floor", "white"), ("ceiling", "white"), ("back", "white"),
          ("redwall", "red"), ("greenwall", "green")]
@@ -144,8 +159,10 @@ def mitsuba_scene(out, res, spp):
     for wall, mat in WALLS:
         d[wall] = obj(DATA / f"cbox_{wall}.obj", diffuse(mat))
     for name, c, r, _, bsdf in SPHERES:
-        if bsdf["type"] == "plastic":
-            bsdf = dict(bsdf, diffuse_reflectance=cbox.spectrum(zip(refl["nm"], refl["green"])))
+        if "_paint" in bsdf:
+            bsdf = dict(bsdf)
+            paint = bsdf.pop("_paint")
+            bsdf["diffuse_reflectance"] = cbox.spectrum(zip(refl["nm"], refl[paint]))
         # Metals are two-sided in stokes; only the outside is visible here.
         d[name] = obj(out / "sphere.obj", bsdf, to_world=T().translate(list(c)).scale(r))
     return d

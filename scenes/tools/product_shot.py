@@ -2,8 +2,9 @@
 """Writes scenes/product-shot.toml (D65) and scenes/product-shot-uv.toml (365 nm UV lamp).
 
 A desk product shot: three coated sticky notes (yellow-green, orange and pink fluorescent
-dyes under a clear coat), a coated yellow-green highlighter, a rough gold sphere and a
-rough BK7 glass sphere on a grey desk in front of a light-grey backdrop, lit by a large
+dyes under a satin, slightly rough clear coat), a glossy coated yellow-green highlighter,
+a rough gold sphere, a lacquered brushed-copper sphere (a rough conductor under a clear
+coat) and a rough BK7 glass sphere on a grey desk in front of a light-grey backdrop, lit by a large
 soft D65 panel; the UV variant swaps the panel for a 365 nm narrow-band lamp with a dim
 D65 fill, where only the dyes that absorb in the UV glow. Units: centimetres. The dyes
 are the parametric ones of scenes/fluorescent-surfaces.toml. Run from the repository root.
@@ -34,6 +35,7 @@ reflectance = 0.75
 [materials.yellow_note]
 type = "coated"
 ior = 1.5
+roughness = 0.12                      # a satin coat
 [materials.yellow_note.base]
 type = "fluorescent_diffuse"
 reflectance = {{ wavelengths = [360, 420, 470, 500, 520, 830], values = [0.08, 0.06, 0.1, 0.55, 0.85, 0.88] }}
@@ -42,6 +44,7 @@ dye = {{ absorption = {{ wavelengths = [360, 400, 440, 470, 495, 515], values = 
 [materials.orange_note]
 type = "coated"
 ior = 1.5
+roughness = 0.12                      # a satin coat
 [materials.orange_note.base]
 type = "fluorescent_diffuse"
 reflectance = {{ wavelengths = [360, 480, 540, 580, 600, 830], values = [0.08, 0.06, 0.06, 0.45, 0.85, 0.88] }}
@@ -50,6 +53,7 @@ dye = {{ absorption = {{ wavelengths = [360, 420, 480, 530, 560, 585], values = 
 [materials.pink_note]
 type = "coated"
 ior = 1.5
+roughness = 0.12                      # a satin coat
 [materials.pink_note.base]
 type = "fluorescent_diffuse"
 reflectance = {{ wavelengths = [360, 450, 510, 560, 600, 830], values = [0.45, 0.55, 0.15, 0.08, 0.7, 0.85] }}
@@ -73,6 +77,11 @@ reflectance = 0.04
 type = "conductor"
 metal = "Au"
 roughness = 0.08
+
+[materials.lacquered_copper]
+type = "coated"
+ior = 1.5
+base = {{ type = "conductor", metal = "Cu", roughness = 0.12 }}
 
 [materials.frosted_glass]
 type = "dielectric"
@@ -130,6 +139,14 @@ radius = 4
 stacks = 48
 smooth = true
 material = "gold"
+
+[[shapes]]
+type = "sphere"
+center = [-11, 3, 9]
+radius = 3
+stacks = 48
+smooth = true
+material = "lacquered_copper"
 
 [[shapes]]
 type = "sphere"

@@ -1,7 +1,7 @@
 //! Materials as a scene file writes them (`[materials.NAME]`), and their parser. The
 //! syntax of every kind is in the [module documentation](super).
 
-use super::{metals, Coated, Ior, Material, MIN_ALPHA};
+use super::{albedo, metals, CoatBase, Coated, Ior, Material, MIN_ALPHA};
 use crate::error::{Key, KeyError};
 use crate::fluoro::{self, Reradiation};
 use crate::scene::context::reject_keys;
@@ -30,7 +30,8 @@ pub struct MaterialDesc {
     pub dye: Option<DyeDesc>,
     /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid).
     pub matrix: Option<String>,
-    /// `conductor`, `dielectric`: GGX width α in [0, 1] (0: smooth), or `[αu, αv]`.
+    /// `conductor`, `dielectric`: GGX width α in [0, 1] (0: smooth), or `[αu, αv]`;
+    /// `coated`: the coat's (isotropic) width.
     pub roughness: Option<RoughnessDesc>,
     /// `conductor`: a shipped metal's symbol (`"Au"`, `"Ag"`, `"Cu"`, `"Al"`).
     pub metal: Option<String>,
@@ -38,7 +39,8 @@ pub struct MaterialDesc {
     pub eta: Option<SpectrumDesc>,
     /// `conductor`: extinction coefficient (≥ 0), with `eta`.
     pub k: Option<SpectrumDesc>,
-    /// `coated`: the material under the coat (inline: a diffuse or fluorescent_diffuse).
+    /// `coated`: the material under the coat (inline: a diffuse, fluorescent_diffuse or
+    /// conductor).
     pub base: Option<Box<MaterialDesc>>,
     /// `coated`: the coat's absorption coefficient σ_a per scene unit (default 0).
     pub absorption: Option<SpectrumDesc>,
@@ -186,7 +188,7 @@ impl Material {
                 ("k", m.k.is_some()),
             ])?;
         }
-        if !matches!(kind, "conductor" | "dielectric") {
+        if !matches!(kind, "conductor" | "dielectric" | "coated") {
             reject(&[("roughness", m.roughness.is_some())])?;
         }
         if kind != "coated" {
@@ -202,7 +204,7 @@ impl Material {
         };
         let ior_keys = [("ior", m.ior.is_some()), ("ext_ior", m.ext_ior.is_some())];
         match kind {
-            "coated" => coated(m, key, ctx),
+            "coated" => coated(m, key, alpha, ctx),
             "conductor" => {
                 reject(&ior_keys)?;
                 reject(&[("reflectance", m.reflectance.is_some())])?;
@@ -293,7 +295,8 @@ pub const KINDS: [(&str, &str); 6] = [
     ),
     (
         "coated",
-        "base = { a diffuse or fluorescent_diffuse material }; ior = index (optional, default 1.5); \
+        "base = { a diffuse, fluorescent_diffuse or conductor material }; ior = index in [1, 3] \
+         (optional, default 1.5); roughness = α (optional, 0 = smooth, else 0.001–1); \
          absorption = SPECTRUM (σ_a per scene unit, optional) with thickness = NUMBER",
     ),
     (
@@ -313,8 +316,14 @@ pub fn kinds_help() -> String {
     s
 }
 
-/// A smooth clear coat over an inline diffuse or fluorescent_diffuse `base`.
-fn coated(m: &MaterialDesc, key: &Key, ctx: &mut Context) -> Result<Material, KeyError> {
+/// A smooth or rough clear coat (GGX width `alpha`, isotropic) over an inline diffuse,
+/// fluorescent_diffuse or conductor `base`.
+fn coated(
+    m: &MaterialDesc,
+    key: &Key,
+    alpha: [f32; 2],
+    ctx: &mut Context,
+) -> Result<Material, KeyError> {
     reject_keys(
         key,
         "coated",
@@ -324,23 +333,42 @@ fn coated(m: &MaterialDesc, key: &Key, ctx: &mut Context) -> Result<Material, Ke
             ("ext_ior", m.ext_ior.is_some()),
         ],
     )?;
+    if alpha[0] != alpha[1] {
+        return Err(key.field("roughness").expected(
+            "one GGX width (a coat's roughness is isotropic)",
+            format!("{alpha:?}"),
+        ));
+    }
     let base_key = key.field("base");
     let base = m.base.as_ref().ok_or_else(|| {
         key.error("missing key `base` (the material under the coat) for a coated material")
     })?;
-    let base =
-        match Material::from_desc(base, &base_key, ctx)? {
-            Material::Diffuse { reflectance } => Arc::new(Reradiation::diagonal_only(reflectance)),
-            Material::FluorescentDiffuse { reradiation } => reradiation,
-            _ => return Err(base_key.field("type").expected(
-                "\"diffuse\" or \"fluorescent_diffuse\" (the coat's model needs a Lambertian base)",
+    let base = match Material::from_desc(base, &base_key, ctx)? {
+        Material::Diffuse { reflectance } => {
+            CoatBase::Lambertian(Arc::new(Reradiation::diagonal_only(reflectance)))
+        }
+        Material::FluorescentDiffuse { reradiation } => CoatBase::Lambertian(reradiation),
+        Material::Conductor { eta, k, alpha } => CoatBase::Conductor { eta, k, alpha },
+        _ => {
+            return Err(base_key.field("type").expected(
+                "\"diffuse\", \"fluorescent_diffuse\" or \"conductor\" (the coat's models)",
                 format!("{:?}", base.kind),
-            )),
-        };
+            ))
+        }
+    };
     let ior = match &m.ior {
         Some(d) => Ior::from_desc(d, &key.field("ior"))?,
         None => Ior::Constant(1.5),
     };
+    for l in [LAMBDA_MIN, 550.0, LAMBDA_MAX] {
+        let n = ior.eval(l);
+        if n > albedo::ETA_MAX {
+            return Err(key.field("ior").expected(
+                format!("a coat index ≤ {} over 360–830 nm", albedo::ETA_MAX),
+                format!("{n} at {l} nm"),
+            ));
+        }
+    }
     let tau = match (&m.absorption, m.thickness) {
         (None, None) => Spectrum::Constant(0.0),
         (Some(a), Some(d)) => {
@@ -356,7 +384,9 @@ fn coated(m: &MaterialDesc, key: &Key, ctx: &mut Context) -> Result<Material, Ke
             return Err(key.error("`thickness` without `absorption` (a clear coat needs neither)"))
         }
     };
-    Ok(Material::Coated(Arc::new(Coated::new(ior, tau, base))))
+    Ok(Material::Coated(Arc::new(Coated::new(
+        ior, tau, alpha[0], base,
+    ))))
 }
 
 /// A conductor's η and k: a shipped `metal`, or `eta` and `k` spectra (η > 0 and k ≥ 0

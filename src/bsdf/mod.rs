@@ -26,8 +26,9 @@
 //! roughness = [0.05, 0.2]      # optional, as for dielectrics; anisotropic widths follow
 //!                              # the mesh's texture u and v (∂p/∂u), else an arbitrary frame
 //! [materials.glossy_note]
-//! type = "coated"              # a smooth clear coat over a diffuse or fluorescent_diffuse
-//! ior = 1.5                    # base; syntax and model in [`coated`]
+//! type = "coated"              # a smooth or rough clear coat over a diffuse,
+//! ior = 1.5                    # fluorescent_diffuse or conductor base; syntax and model
+//! roughness = 0.05             # in [`coated`]
 //! base = { type = "diffuse", reflectance = 0.8 }
 //! [materials.highlighter]
 //! type = "fluorescent_diffuse" # a dye over a reflectance, or matrix = "measured.csv"
@@ -35,13 +36,14 @@
 //! dye = { absorption = { narrow_band = 440, fwhm = 60 }, emission = { narrow_band = 520, fwhm = 40 }, quantum_yield = 0.9 }
 //! ```
 
+pub mod albedo;
 pub mod coated;
 pub mod desc;
 pub mod metals;
 pub mod microfacet;
 pub mod rough;
 
-pub use coated::Coated;
+pub use coated::{CoatBase, Coated, CoatedConductor};
 pub use desc::{DyeDesc, IorDesc, IorTable, MaterialDesc, SellmeierDesc};
 pub use microfacet::{fresnel_conductor, Frame, Ggx};
 
@@ -163,7 +165,8 @@ pub enum Material {
         /// GGX widths along the two tangents; [0, 0] for a smooth conductor.
         alpha: [f32; 2],
     },
-    /// A smooth clear coat over a Lambertian, possibly fluorescent, base ([`coated`]).
+    /// A smooth or rough clear coat over a Lambertian (possibly fluorescent) or a
+    /// conductor base ([`coated`]).
     Coated(Arc<Coated>),
 }
 
@@ -275,9 +278,27 @@ pub enum Lobe {
     RoughDielectric(Vec4, f32, [f32; 2]),
     /// Conductor: per-lane η and k, GGX widths ([0, 0]: smooth).
     Conductor(Vec4, Vec4, [f32; 2]),
-    /// The base of a coated surface seen through its coat: per-lane coat index and optical
-    /// depth (the coat's mirror branch is a [`Lobe::Mirror`]).
-    CoatedBase(Vec4, Vec4),
+    /// The Lambertian base of a coated surface seen through its coat: per-lane coat index
+    /// and optical depth, the coat's GGX width (the coat's own reflection is a
+    /// [`Lobe::Mirror`] or a rough [`Lobe::Conductor`] with k = 0).
+    CoatedBase(Vec4, Vec4, f32),
+    /// A conductor under a coat ([`CoatedConductor`]): per-lane coat index and optical
+    /// depth, the coat's GGX width, per-lane conductor η and k, its GGX widths ([0, 0]:
+    /// smooth, and the whole a mirror).
+    CoatedConductor {
+        /// The coat's index.
+        coat_eta: Vec4,
+        /// The coat's optical depth.
+        tau: Vec4,
+        /// The coat's GGX width.
+        coat_alpha: f32,
+        /// The conductor's η.
+        eta: Vec4,
+        /// The conductor's k.
+        k: Vec4,
+        /// The conductor's GGX widths.
+        alpha: [f32; 2],
+    },
 }
 
 /// Whether GGX widths describe a rough surface; below this a conductor is a Dirac mirror
@@ -306,7 +327,20 @@ impl Material {
             Material::Conductor { eta, k, alpha } => {
                 Lobe::Conductor(eta.eval4(lambda), k.eval4(lambda), *alpha)
             }
-            Material::Coated(c) => Lobe::CoatedBase(c.ior.eval4(lambda), c.tau.eval4(lambda)),
+            Material::Coated(c) => {
+                let (coat_eta, tau) = (c.ior.eval4(lambda), c.tau.eval4(lambda));
+                match &c.base {
+                    CoatBase::Lambertian(_) => Lobe::CoatedBase(coat_eta, tau, c.alpha),
+                    CoatBase::Conductor { eta, k, alpha } => Lobe::CoatedConductor {
+                        coat_eta,
+                        tau,
+                        coat_alpha: c.alpha,
+                        eta: eta.eval4(lambda),
+                        k: k.eval4(lambda),
+                        alpha: *alpha,
+                    },
+                }
+            }
         }
     }
 }
@@ -317,7 +351,7 @@ impl Lobe {
     pub fn is_specular(&self) -> bool {
         match *self {
             Lobe::Diffuse(_) | Lobe::RoughDielectric(..) | Lobe::CoatedBase(..) => false,
-            Lobe::Conductor(_, _, alpha) => !is_rough(alpha),
+            Lobe::Conductor(_, _, alpha) | Lobe::CoatedConductor { alpha, .. } => !is_rough(alpha),
             Lobe::Mirror(_) | Lobe::Dielectric(..) => true,
         }
     }
@@ -471,20 +505,28 @@ pub struct Lobes<F: Float> {
     pub conductor: F::Mask,
     /// The rough conductor paths.
     pub rough_conductor: F::Mask,
-    /// The paths on a coated surface's base ([`coated`]).
+    /// The paths on a coated surface's Lambertian base ([`coated`]).
     pub coated_base: F::Mask,
+    /// The paths on a rough conductor under a coat ([`CoatedConductor`]).
+    pub coated_conductor: F::Mask,
+    /// The paths on a smooth conductor under a coat (a mirror, [`CoatedConductor::mirror`]).
+    pub coated_mirror: F::Mask,
     /// Diffuse albedo or mirror reflectance.
     pub albedo: Spec<F>,
     /// Dielectric interior index, or conductor η, per wavelength.
     pub n_in: Spec<F>,
-    /// Conductor k per wavelength.
+    /// Conductor k per wavelength (bare or under a coat).
     pub k: Spec<F>,
+    /// η of a conductor under a coat, per wavelength (the coat's index in `n_in`).
+    pub base_eta: Spec<F>,
     /// Dielectric exterior index.
     pub ext_ior: F,
     /// GGX widths of the rough paths (1 elsewhere).
     pub alpha: [F; 2],
     /// Coat optical depth per wavelength (coated bases; coat index in `n_in`).
     pub tau: Spec<F>,
+    /// The coat's GGX width (coated bases; 0: smooth).
+    pub coat_alpha: F,
 }
 
 /// Which paths on coated surfaces took the coat's mirror reflection, and the cosine of
@@ -523,12 +565,16 @@ impl<F: Float> Lobes<F> {
             conductor: no,
             rough_conductor: no,
             coated_base: no,
+            coated_conductor: no,
+            coated_mirror: no,
             albedo: Spec::splat(1.0),
             n_in: Spec::splat(1.0),
             k: Spec::splat(0.0),
+            base_eta: Spec::splat(1.0),
             ext_ior: F::splat(1.0),
             alpha: [F::splat(1.0); 2],
             tau: Spec::splat(0.0),
+            coat_alpha: F::splat(0.0),
         }
     }
 
@@ -543,6 +589,14 @@ impl<F: Float> Lobes<F> {
             LobeKind::Conductor => self.conductor |= m,
             LobeKind::RoughConductor => self.rough_conductor |= m,
             LobeKind::CoatedBase => self.coated_base |= m,
+            LobeKind::CoatedConductor => self.coated_conductor |= m,
+            LobeKind::CoatedMirror => self.coated_mirror |= m,
+        }
+        if let Some(a) = p.coat_alpha {
+            self.coat_alpha = F::select(m, F::splat(a), self.coat_alpha);
+        }
+        if let Some(e) = p.base_eta {
+            self.base_eta.set_where(m, e);
         }
         if let Some(t) = p.tau {
             self.tau.set_where(m, t);
@@ -584,9 +638,26 @@ impl<F: Float> Lobes<F> {
                     conductor_kind(a),
                     LobeParams::conductor(one(eta), one(k), a),
                 ),
-                Lobe::CoatedBase(eta, tau) => {
-                    (LobeKind::CoatedBase, LobeParams::coated(one(eta), one(tau)))
-                }
+                Lobe::CoatedBase(eta, tau, a) => (
+                    LobeKind::CoatedBase,
+                    LobeParams::coated(one(eta), one(tau), a),
+                ),
+                Lobe::CoatedConductor {
+                    coat_eta,
+                    tau,
+                    coat_alpha,
+                    eta,
+                    k,
+                    alpha,
+                } => (
+                    coated_conductor_kind(alpha),
+                    LobeParams::coated_conductor(
+                        LobeParams::coated(one(coat_eta), one(tau), coat_alpha),
+                        one(eta),
+                        one(k),
+                        alpha,
+                    ),
+                ),
             };
             l.set(m, kind, p);
         }
@@ -595,7 +666,9 @@ impl<F: Float> Lobes<F> {
 
     /// The lobes of the paths in `active`, path i on material `materials[mat[i]]` at its
     /// wavelengths: each material present is evaluated once, for all its paths at once.
-    /// Paths on coated surfaces get the coat's mirror or the base, as `coat` says.
+    /// Paths on coated surfaces get the coat's reflection or the base, as `coat` says (a
+    /// rough coat's reflection is a rough conductor with k = 0, its 1/P in the path's
+    /// throughput).
     #[inline(always)]
     pub fn at(
         materials: &[Material],
@@ -640,13 +713,25 @@ impl<F: Float> Lobes<F> {
                 ),
                 Material::Coated(c) => {
                     let mirror = m & coat.mirror;
-                    if mirror.any() {
+                    if mirror.any() && c.is_rough() {
+                        let eta = c.ior.eval_w(lambda, mirror);
+                        let p = LobeParams::conductor(eta, Spec::zero(), [c.alpha; 2]);
+                        l.set(mirror, LobeKind::RoughConductor, p);
+                    } else if mirror.any() {
                         let w = c.reflectance(coat.cos_o, lambda, mirror) / coat.p;
                         l.set(mirror, LobeKind::Mirror, LobeParams::albedo(w));
                     }
                     let m = m & !mirror;
                     let (eta, tau) = c.at(lambda, m);
-                    l.set(m, LobeKind::CoatedBase, LobeParams::coated(eta, tau));
+                    let coat_params = LobeParams::coated(eta, tau, c.alpha);
+                    match &c.base {
+                        CoatBase::Lambertian(_) => l.set(m, LobeKind::CoatedBase, coat_params),
+                        CoatBase::Conductor { eta, k, alpha } => {
+                            let (eta, k) = (eta.eval_w(lambda, m), k.eval_w(lambda, m));
+                            let p = LobeParams::coated_conductor(coat_params, eta, k, *alpha);
+                            l.set(m, coated_conductor_kind(*alpha), p);
+                        }
+                    }
                     continue;
                 }
             };
@@ -664,7 +749,24 @@ impl<F: Float> Lobes<F> {
     /// The paths whose every scattering event is a Dirac delta (no light sampling helps).
     #[inline(always)]
     pub fn is_specular(&self) -> F::Mask {
-        !(self.diffuse | self.rough_conductor | self.rough_dielectric | self.coated_base)
+        !(self.diffuse
+            | self.rough_conductor
+            | self.rough_dielectric
+            | self.coated_base
+            | self.coated_conductor)
+    }
+
+    /// The conductors under a coat, as [`CoatedConductor`] sees them.
+    #[inline(always)]
+    fn coated_conductor(&self) -> CoatedConductor<F> {
+        CoatedConductor {
+            coat_eta: self.n_in,
+            tau: self.tau,
+            coat_alpha: self.coat_alpha,
+            eta: self.base_eta,
+            k: self.k,
+            ggx: self.ggx(),
+        }
     }
 
     /// The GGX distribution of the rough paths.
@@ -690,8 +792,15 @@ impl<F: Float> Lobes<F> {
         if self.coated_base.any() {
             let ok = self.coated_base & (co * ci).gt(F::splat(0.0)) & c.gt(F::splat(0.0));
             let pdf = cosine_hemisphere_pdf(c).masked(ok);
-            f.set_where(ok, coated::crossing(c, &self.n_in, &self.tau) * pdf);
+            let through = coated::crossing(c, &self.n_in, &self.tau, self.coat_alpha);
+            f.set_where(ok, through * pdf);
             p.set_where(ok, Spec::broadcast(pdf));
+        }
+        if self.coated_conductor.any() {
+            let m = self.coated_conductor;
+            let (fc, pc) = self.coated_conductor().eval(nrm, wo, wi);
+            f.set_where(m, fc);
+            p.set_where(m, pc);
         }
         if self.rough_conductor.any() {
             let m = self.rough_conductor;
@@ -740,9 +849,24 @@ impl<F: Float> Lobes<F> {
             let pdf = cosine_hemisphere_pdf(c);
             s.valid |= ok;
             s.wi.set_where(ok, wi);
-            let through = coated::crossing(c, &self.n_in, &self.tau);
+            let through = coated::crossing(c, &self.n_in, &self.tau, self.coat_alpha);
             s.f_cos.set_where(ok, through * pdf);
             s.pdf.set_where(ok, Spec::broadcast(pdf));
+        }
+        if self.coated_mirror.any() {
+            let wi = reflect(wo, ns);
+            let m = self.coated_mirror & (nrm.ng.dot(wo) * nrm.ng.dot(wi)).gt(zero);
+            s.valid |= m;
+            s.wi.set_where(m, wi);
+            s.f_cos
+                .set_where(m, self.coated_conductor().mirror(ns.dot(wo)));
+            s.pdf.set_where(m, Spec::splat(1.0));
+        }
+        if self.coated_conductor.any() {
+            let lobe = self.coated_conductor();
+            let (wi, ok) = lobe.sample(nrm, wo, u);
+            let (f, p) = lobe.eval(nrm, wo, wi);
+            self.keep(&mut s, self.coated_conductor & ok, wi, f, p);
         }
         if self.mirror.any() {
             let wi = reflect(wo, ns);
@@ -828,6 +952,8 @@ enum LobeKind {
     Conductor,
     RoughConductor,
     CoatedBase,
+    CoatedConductor,
+    CoatedMirror,
 }
 
 fn conductor_kind(alpha: [f32; 2]) -> LobeKind {
@@ -837,7 +963,15 @@ fn conductor_kind(alpha: [f32; 2]) -> LobeKind {
     }
 }
 
+fn coated_conductor_kind(alpha: [f32; 2]) -> LobeKind {
+    match is_rough(alpha) {
+        true => LobeKind::CoatedConductor,
+        false => LobeKind::CoatedMirror,
+    }
+}
+
 /// The parameters one lobe kind sets ([`Lobes::set`]).
+#[derive(Default)]
 struct LobeParams<F: Float> {
     albedo: Option<Spec<F>>,
     n_in: Option<Spec<F>>,
@@ -845,50 +979,51 @@ struct LobeParams<F: Float> {
     ext_ior: Option<f32>,
     alpha: Option<[f32; 2]>,
     tau: Option<Spec<F>>,
+    coat_alpha: Option<f32>,
+    base_eta: Option<Spec<F>>,
 }
 
 impl<F: Float> LobeParams<F> {
     fn albedo(a: Spec<F>) -> Self {
         LobeParams {
             albedo: Some(a),
-            n_in: None,
-            k: None,
-            ext_ior: None,
-            alpha: None,
-            tau: None,
+            ..Default::default()
         }
     }
 
     fn ior(n: Spec<F>, ext: f32, alpha: Option<[f32; 2]>) -> Self {
         LobeParams {
-            albedo: None,
             n_in: Some(n),
-            k: None,
             ext_ior: Some(ext),
             alpha,
-            tau: None,
+            ..Default::default()
         }
     }
 
     fn conductor(eta: Spec<F>, k: Spec<F>, alpha: [f32; 2]) -> Self {
         LobeParams {
-            albedo: None,
             n_in: Some(eta),
             k: Some(k),
-            ext_ior: None,
             alpha: is_rough(alpha).then_some(alpha),
-            tau: None,
+            ..Default::default()
         }
     }
 
-    fn coated(eta: Spec<F>, tau: Spec<F>) -> Self {
+    fn coated(eta: Spec<F>, tau: Spec<F>, coat_alpha: f32) -> Self {
         LobeParams {
-            albedo: None,
             n_in: Some(eta),
-            k: None,
-            ext_ior: None,
-            alpha: None,
             tau: Some(tau),
+            coat_alpha: Some(coat_alpha),
+            ..Default::default()
+        }
+    }
+
+    fn coated_conductor(coat: Self, eta: Spec<F>, k: Spec<F>, alpha: [f32; 2]) -> Self {
+        LobeParams {
+            base_eta: Some(eta),
+            k: Some(k),
+            alpha: is_rough(alpha).then_some(alpha),
+            ..coat
         }
     }
 }

@@ -23,7 +23,7 @@ use crate::simd::{Float, Mask, Spec, V3};
 /// The shading frame oriented to `wo`'s side of the surface (its first tangent the mesh's
 /// ∂p/∂u where it has one), and `wo` in it.
 #[inline(always)]
-fn frame_towards<F: Float>(nrm: &Normals<F>, wo: V3<F>) -> (Frame<F>, V3<F>, F::Mask) {
+pub(super) fn frame_towards<F: Float>(nrm: &Normals<F>, wo: V3<F>) -> (Frame<F>, V3<F>, F::Mask) {
     let front = nrm.ng.dot(wo).gt(F::splat(0.0));
     let n = V3::select(front, nrm.ns, -nrm.ns);
     let frame = Frame::oriented(n, nrm.t, nrm.has_t);

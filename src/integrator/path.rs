@@ -392,8 +392,8 @@ impl<F: Float> Paths<F> {
         for i in s.iter() {
             let model = match &scene.materials[mat[i] as usize] {
                 Material::FluorescentDiffuse { reradiation } => Some(reradiation.as_ref()),
-                Material::Coated(c) if !coat.mirror.get(i) && c.base.is_fluorescent() => {
-                    Some(c.base.as_ref())
+                Material::Coated(c) if !coat.mirror.get(i) && c.fluoresces() => {
+                    c.reradiation().map(|b| b.as_ref())
                 }
                 _ => None,
             };
@@ -412,8 +412,9 @@ impl<F: Float> Paths<F> {
         self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, &nrm, wo, children);
     }
 
-    /// The paths in `m` that are on coated surfaces choose between the coat's mirror
-    /// (probability P, the same for every lane) and the base; the base's paths take what
+    /// The paths in `m` that are on coated surfaces choose between the coat's reflection
+    /// (probability P, the same for every lane; a rough coat's paths take 1/P here, a
+    /// smooth coat's with its mirror's weight) and the base; the base's paths take what
     /// the coat does to light leaving towards `wo` at their current wavelengths (λo,
     /// before any shift), over 1 − P, and the base's albedo when it does not fluoresce
     /// (a fluorescent base's re-radiation comes with the shift). [`crate::bsdf::coated`].
@@ -446,11 +447,15 @@ impl<F: Float> Paths<F> {
             let p = c.p_coat(cos_o);
             p_mirror = F::select(same, p, p_mirror);
             mirror |= same & u.lt(p);
+            if c.is_rough() {
+                let m = same & u.lt(p);
+                self.beta.set_where(m, self.beta / p);
+            }
             let base = same & !u.lt(p);
             if base.any() {
                 let mut w = c.exit(cos_o, &self.lambda, base) / (F::splat(1.0) - p);
-                if !c.base.is_fluorescent() {
-                    w *= c.base.diagonal().eval_w(&self.lambda, base);
+                if let Some(b) = c.reradiation().filter(|b| !b.is_fluorescent()) {
+                    w *= b.diagonal().eval_w(&self.lambda, base);
                 }
                 self.beta.set_where(base, self.beta * w);
             }

@@ -309,7 +309,7 @@ impl Scene {
     pub fn has_fluorescence(&self) -> bool {
         self.materials.iter().any(|m| match m {
             Material::FluorescentDiffuse { reradiation } => reradiation.is_fluorescent(),
-            Material::Coated(c) => c.base.is_fluorescent(),
+            Material::Coated(c) => c.fluoresces(),
             _ => false,
         })
     }
