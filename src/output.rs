@@ -87,6 +87,23 @@ fn output_error(option: &str, path: &Path, expected: &str, found: impl Into<Stri
     )
 }
 
+/// Checks that the image `option` names ends in .exr: an OpenEXR image written under a
+/// .png name fools every viewer.
+pub fn check_exr_name(option: &str, path: &Path) -> Result<()> {
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    match is_exr {
+        true => Ok(()),
+        false => Err(output_error(
+            option,
+            path,
+            "a file name ending in .exr (stokes writes OpenEXR; --png adds a PNG preview)",
+            format!("{:?}", path.file_name().unwrap_or_default()),
+        )),
+    }
+}
+
 /// [`check_outputs`] for one path.
 fn check_output(option: &str, path: &Path) -> Result<()> {
     let bad = |expected: &str, found: String| Err(output_error(option, path, expected, found));
@@ -95,16 +112,6 @@ fn check_output(option: &str, path: &Path) -> Result<()> {
     }
     if path.is_dir() {
         return bad("a file to write", "a directory".into());
-    }
-    let is_exr = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if option == "-o" && !is_exr {
-        // An image named .png that holds OpenEXR data fools every viewer.
-        return bad(
-            "a file name ending in .exr (stokes writes OpenEXR; --png adds a PNG preview)",
-            format!("{:?}", path.file_name().unwrap_or_default()),
-        );
     }
     // The nearest ancestor that exists: the directory to write in, or the one in which
     // the missing directories will be created.
@@ -309,6 +316,9 @@ impl RenderFiles {
 
     /// Checks before any work that every file can be written ([`check_outputs`]).
     pub fn check(&self) -> Result<()> {
+        // The image first (a directory, then a name that is not .exr), then all together.
+        check_outputs(&[("-o", &self.exr)])?;
+        check_exr_name("-o", &self.exr)?;
         let paths = self.paths();
         let named: Vec<(&str, &Path)> = paths.iter().map(|(o, p)| (*o, p.as_path())).collect();
         check_outputs(&named)
@@ -443,9 +453,13 @@ mod tests {
             check_outputs(&[("-o", &ok), ("--png", &dir.join("a.png"))]).map_err(|e| e.to_string()),
             Ok(())
         );
-        let bad: [(&[(&str, &Path)], &str); 6] = [
+        assert!(check_exr_name("-o", &dir.join("img.png"))
+            .unwrap_err()
+            .to_string()
+            .contains("ending in .exr"));
+        assert!(check_exr_name("-o", &dir.join("img.EXR")).is_ok());
+        let bad: [(&[(&str, &Path)], &str); 5] = [
             (&[("-o", &dir.join("sub"))], "-o "),
-            (&[("-o", &dir.join("img.png"))], "ending in .exr"),
             (&[("-o", &dir.join("file/img.exr"))], "found a file"),
             (&[("--png", &dir.join("file/new/img.png"))], "--png"),
             (&[("-o", &ok), ("--stats-json", &ok)], "the file -o writes"),

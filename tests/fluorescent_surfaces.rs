@@ -7,10 +7,7 @@ use common::*;
 use glam::Vec3;
 use stokes::bsdf::Material;
 use stokes::color::xyz_to_linear_srgb;
-use stokes::integrator::{radiance, PathOptions, PathStats};
-use stokes::medium::tracking::Tracking;
 use stokes::method::{Method, Shifting, Spectral};
-use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 use stokes::spectrum::{illuminant, Spectrum};
 
@@ -196,46 +193,6 @@ fn closed_form(scene: &Scene, lambda_o: f32) -> f64 {
         li += h;
     }
     (rr.d(lambda_o) * light.eval(lambda_o)) as f64 + integral
-}
-
-/// The mean radiance at `lambda_o` along `ray` over `n` mono paths (seeded by `seed`, the
-/// wavelength and the sample index) and its standard error.
-fn mono_estimate(
-    scene: &Scene,
-    ray: stokes::accel::Ray,
-    lambda_o: f32,
-    n: u64,
-    seed: u64,
-) -> (f64, f64) {
-    let opts = PathOptions {
-        method: Method {
-            spectral: Spectral::Mono,
-            ..Method::default()
-        }
-        .with_tracking(Tracking::Classic),
-        max_depth: -1,
-    };
-    let (mut sum, mut sq) = (0.0f64, 0.0f64);
-    let mut stats = PathStats::default();
-    for i in 0..n {
-        let l = radiance(
-            scene,
-            ray,
-            glam::Vec4::splat(lambda_o),
-            &opts,
-            Pcg32::for_sample(seed, lambda_o as u64, i),
-            LazyStream::new(seed, lambda_o as u64, i),
-            &mut stats,
-        );
-        let v = l.x as f64;
-        sum += v;
-        sq += v * v;
-    }
-    let mean = sum / n as f64;
-    (
-        mean,
-        ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt(),
-    )
 }
 
 #[test]

@@ -28,7 +28,8 @@ pub struct MaterialDesc {
     pub ext_ior: Option<f32>,
     /// `fluorescent_diffuse`: a parametric dye.
     pub dye: Option<DyeDesc>,
-    /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid).
+    /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid or a Labsphere
+    /// BFC-450 file).
     pub matrix: Option<String>,
     /// `conductor`, `dielectric`: GGX width α in [0, 1] (0: smooth), or `[αu, αv]`;
     /// `coated`: the coat's (isotropic) width.
@@ -302,7 +303,7 @@ pub const KINDS: [(&str, &str); 6] = [
     (
         "fluorescent_diffuse",
         "reflectance = SPECTRUM (the diagonal) and dye = { absorption, emission, quantum_yield, \
-         cell_nm }, or matrix = \"file.csv\" (reflectance optional)",
+         cell_nm }, or matrix = \"file.csv\" or \"file.BFC\" (a measured matrix; reflectance optional)",
     ),
 ];
 
@@ -450,18 +451,9 @@ fn reradiation(
         (None, Some(file)) => {
             let path = ctx.resolve(file);
             let matrix = key.field("matrix");
-            let (rr, report) = Reradiation::from_csv(&path).map_err(|e| matrix.error(e))?;
-            let clamped = report.clamped_negative + report.clamped_anti_stokes;
-            if clamped > 0 {
-                ctx.warn(
-                    &matrix,
-                    format!(
-                        "{}: set {} negative and {} anti-Stokes (emission ≤ excitation) entries to zero",
-                        path.display(),
-                        report.clamped_negative,
-                        report.clamped_anti_stokes
-                    ),
-                );
+            let (rr, report) = Reradiation::from_file(&path).map_err(|e| matrix.error(e))?;
+            if !report.is_clean() {
+                ctx.warn(&matrix, format!("{}: {report}", path.display()));
             }
             Ok(match diagonal {
                 Some(d) => rr.with_diagonal(d),

@@ -189,12 +189,25 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
         ));
     }
 
+    let m: Vec<Vec<f32>> = rows.iter().map(|r| r[1..].to_vec()).collect();
+    square(&centres, &m, source)
+}
+
+/// The re-radiation of a square matrix `m[i][o]` (excitation cell i, emission cell o) on
+/// the evenly spaced cell centres `centres`: negatives and anti-Stokes entries set to 0
+/// and counted, the diagonal as D, the rest as F = m/h.
+pub(super) fn square(
+    centres: &[f32],
+    m: &[Vec<f32>],
+    source: &str,
+) -> Result<(Reradiation, ImportReport)> {
+    let n = centres.len();
     let h = (centres[n - 1] - centres[0]) / (n - 1) as f32;
     let mut report = ImportReport::default();
     let mut diag = Vec::with_capacity(n);
     let mut f = vec![0.0f32; n * n];
-    for (i, row) in rows.iter().enumerate() {
-        for (o, &v) in row[1..].iter().enumerate() {
+    for (i, row) in m.iter().enumerate() {
+        for (o, &v) in row.iter().enumerate() {
             let v = if o < i && v != 0.0 {
                 report.clamped_anti_stokes += 1;
                 0.0
@@ -215,7 +228,7 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
     // D through the cell centres, held constant out to the outer cell edges.
     let mut knots = Vec::with_capacity(n + 2);
     knots.push(centres[0] - 0.5 * h);
-    knots.extend_from_slice(&centres);
+    knots.extend_from_slice(centres);
     knots.push(centres[n - 1] + 0.5 * h);
     let mut values = Vec::with_capacity(n + 2);
     values.push(diag[0]);

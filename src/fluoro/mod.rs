@@ -23,6 +23,8 @@
 //! - [`Reradiation::diagonal_only`]: no fluorescence, exactly a plain diffuse reflectance.
 //! - [`Reradiation::from_dye`]: a parametric dye (absorption, emission, quantum yield).
 //! - [`Reradiation::from_csv`]: a measured matrix (format below).
+//! - [`Reradiation::from_file`]: a measured matrix in that CSV format or in the Labsphere
+//!   BFC-450 format of the RIT bispectral database ([`bfc`]).
 //!
 //! # Measured matrix format (CSV)
 //! ```text
@@ -49,11 +51,45 @@
 //! ∝ F(·, λo) (a cell from the column's CDF, uniform inside the cell). Either way the
 //! sample's value over its pdf is D(λo) + σ_se(λo).
 
+pub mod bfc;
 mod import;
 
+pub use bfc::BfcReport;
 pub use import::ImportReport;
 
 use crate::error::{Detail, Error, Key, KeyError};
+
+/// What importing a measured matrix changed, by format.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MatrixReport {
+    /// A CSV matrix: entries set to 0.
+    Csv(ImportReport),
+    /// A BFC file: entries set to 0, columns dropped, rows not measured.
+    Bfc(BfcReport),
+}
+
+impl MatrixReport {
+    /// Whether the import changed nothing a user should hear about.
+    pub fn is_clean(&self) -> bool {
+        match self {
+            MatrixReport::Csv(r) => r.is_clean(),
+            MatrixReport::Bfc(r) => {
+                r.clamped.is_clean()
+                    && r.excitation_dropped.is_none()
+                    && r.emission_unmeasured.is_none()
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for MatrixReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MatrixReport::Csv(r) => r.fmt(f),
+            MatrixReport::Bfc(r) => r.fmt(f),
+        }
+    }
+}
 use crate::simd::Float;
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_RANGE};
 use glam::Vec4;
@@ -319,6 +355,54 @@ impl Reradiation {
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::file(path, None, format!("cannot read: {e}")))?;
         Self::from_csv_str(&text, &path.display().to_string())
+    }
+
+    /// A measured matrix from a file: a Labsphere BFC-450 file (recognised by its first
+    /// line, [`bfc`]) or CSV. The report says what the import changed.
+    pub fn from_file(path: &Path) -> crate::Result<(Reradiation, MatrixReport)> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::file(path, None, format!("cannot read: {e}")))?;
+        let source = path.display().to_string();
+        if bfc::is_bfc(&text) {
+            let (r, report) = bfc::parse(&text, &source)?;
+            Ok((r, MatrixReport::Bfc(report)))
+        } else {
+            let (r, report) = import::parse(&text, &source)?;
+            Ok((r, MatrixReport::Csv(report)))
+        }
+    }
+
+    /// The matrix in the CSV format of the module docs: cell centres, the diagonal D at
+    /// each centre, F·h above it (what [`Self::from_csv`] reads back, to float rounding).
+    /// None for a surface without a grid ([`Self::diagonal_only`]).
+    pub fn to_csv(&self, comment: &str) -> Option<String> {
+        let n = self.n;
+        if n == 0 {
+            return None;
+        }
+        let mut out = String::new();
+        for line in comment.lines() {
+            out.push_str(&format!("# {line}\n"));
+        }
+        let centres: Vec<f32> = (0..n).map(|k| self.cell_centre(k)).collect();
+        out.push_str("nm");
+        for c in &centres {
+            out.push_str(&format!(",{c}"));
+        }
+        out.push('\n');
+        for (i, &ci) in centres.iter().enumerate() {
+            out.push_str(&format!("{ci}"));
+            for o in 0..n {
+                let m = match o.cmp(&i) {
+                    std::cmp::Ordering::Less => 0.0,
+                    std::cmp::Ordering::Equal => self.diagonal.eval(ci),
+                    std::cmp::Ordering::Greater => self.f[i * n + o] * self.cell_nm,
+                };
+                out.push_str(&format!(",{m}"));
+            }
+            out.push('\n');
+        }
+        Some(out)
     }
 
     /// [`Self::from_csv`] on text; `source` (usually the file name) is the file every error

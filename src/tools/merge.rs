@@ -229,6 +229,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path, variance: bool) -> Result<MergeRepo
         outputs.push(("--variance", vp.as_path()));
     }
     check_outputs(&outputs)?;
+    crate::output::check_exr_name("-o", out)?;
     if inputs.is_empty() {
         // The command line requires inputs: only a library caller gets here.
         return Err(Error::Other(

@@ -5,6 +5,7 @@
 //! - [`reference`]: `stokes reference`, long references that can be resumed;
 //! - [`converge`]: `stokes converge`, error against time and spp for several methods;
 //! - [`chart`]: the log–log charts `converge` draws;
+//! - [`convert`]: `stokes convert-bispectral`, a measured matrix (BFC, CSV) as CSV;
 //! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`.
 
 pub mod bench_limit;
@@ -12,5 +13,6 @@ pub mod bench_rays;
 pub mod bench_render;
 pub mod chart;
 pub mod converge;
+pub mod convert;
 pub mod merge;
 pub mod reference;

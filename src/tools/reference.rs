@@ -126,6 +126,7 @@ pub fn render(job: &Job, on_pass: &mut dyn FnMut(PassDone)) -> Result<Report> {
     let (scene, out) = (job.scene, job.out);
     let var_path = variance_path(out);
     check_outputs(&[("-o", out), ("-o", &var_path)])?;
+    crate::output::check_exr_name("-o", out)?;
     let size = (scene.camera.width, scene.camera.height);
     let run_header = |ranges: Vec<SampleRange>, seconds: f64, stopped: Stopped| {
         RenderHeader::for_render(scene, job.opts, ranges, seconds, stopped)

@@ -44,6 +44,16 @@ pub enum Command {
         after_long_help = converge::HELP
     )]
     Converge(ConvergeArgs),
+    /// Write a measured re-radiation matrix (a Labsphere BFC-450 file or a CSV matrix) as
+    /// the CSV a fluorescent_diffuse material's `matrix` key reads, with what the import
+    /// changed (clipped range, entries set to 0) in its header.
+    ConvertBispectral {
+        /// The measured matrix (.BFC or .csv).
+        input: PathBuf,
+        /// The CSV to write.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Benchmarks.
     Bench {
         #[command(subcommand)]

@@ -35,6 +35,10 @@ fn main() -> ExitCode {
             Ok(ExitCode::SUCCESS)
         }
         Command::Merge(a) => ok(cmd_merge(&a)),
+        Command::ConvertBispectral { input, output } => {
+            ok(stokes::tools::convert::convert_bispectral(&input, &output)
+                .map(|report| eprintln!("{}: {report} → {}", input.display(), output.display())))
+        }
         Command::Bench { what } => ok(bench::run(&what)),
     };
     result.unwrap_or_else(|e| {
