@@ -90,6 +90,12 @@ fn all_eight_files_import_with_a_report() {
         );
         assert_eq!(r.excitation_dropped, Some((300.0, 350.0, 6)), "{name}");
         assert_eq!(r.emission_unmeasured, Some((360.0, 370.0)), "{name}");
+        assert_eq!(r.held_above, Some(780.0), "{name}");
+        assert_eq!(
+            rr.d(829.0),
+            rr.d(780.0),
+            "{name}: reflectance held above 785 nm"
+        );
         assert!(
             r.clamped.clamped_negative > 0,
             "{name}: measurement noise expected"

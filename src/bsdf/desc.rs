@@ -361,13 +361,16 @@ fn coated(
         Some(d) => Ior::from_desc(d, &key.field("ior"))?,
         None => Ior::Constant(1.5),
     };
-    for l in [LAMBDA_MIN, 550.0, LAMBDA_MAX] {
-        let n = ior.eval(l);
-        if n > albedo::ETA_MAX {
-            return Err(key.field("ior").expected(
-                format!("a coat index ≤ {} over 360–830 nm", albedo::ETA_MAX),
-                format!("{n} at {l} nm"),
-            ));
+    // A rough coat's albedo table covers indices up to ETA_MAX; check every nm.
+    if alpha[0] >= MIN_ALPHA {
+        for l in (LAMBDA_MIN as u32..=LAMBDA_MAX as u32).map(|l| l as f32) {
+            let n = ior.eval(l);
+            if n > albedo::ETA_MAX {
+                return Err(key.field("ior").expected(
+                    format!("a rough coat's index ≤ {} over 360–830 nm", albedo::ETA_MAX),
+                    format!("{n} at {l} nm"),
+                ));
+            }
         }
     }
     let tau = match (&m.absorption, m.thickness) {

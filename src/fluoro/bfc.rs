@@ -19,14 +19,17 @@
 //! [`super`]). The importer puts the matrix on the square grid of the excitation
 //! wavelengths inside the renderer's range (10 nm cells centred at 360 … 780 nm for the
 //! database's files), and reports what that changes ([`BfcReport`]): excitation columns
-//! below 360 nm dropped (the renderer does not trace them), emission that was not measured
-//! (below the first emission row: no re-emission there, the diagonal held at its first
-//! measured value), and, as for CSV, negative noise and anti-Stokes entries set to 0.
+//! below 360 nm dropped (the renderer does not trace them), emission rows below 360 nm
+//! dropped, emission that was not measured on the grid (no re-emission there, the
+//! diagonal held at the nearest measured row's), the diagonal held at its last value
+//! from the last cell's edge up to 830 nm, and, as for CSV, negative noise and
+//! anti-Stokes entries set to 0. Excitation that ends before the emission does is an
+//! error: the reflectance (the diagonal) there was never measured.
 
 use super::import::{self, ImportReport};
-use super::Reradiation;
+use super::{Reradiation, MAX_CELLS};
 use crate::error::{Detail, Error};
-use crate::spectrum::LAMBDA_MIN;
+use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::Result;
 use std::fmt;
 
@@ -41,6 +44,11 @@ pub struct BfcReport {
     pub excitation_dropped: Option<(f32, f32, usize)>,
     /// Emission not measured on the grid: (first, last) nm of the rows added as zeros.
     pub emission_unmeasured: Option<(f32, f32)>,
+    /// Emission rows dropped below the renderer's range: (first, last) nm and count.
+    pub emission_dropped: Option<(f32, f32, usize)>,
+    /// The last measured wavelength, where it ends inside the rendered range: the
+    /// reflectance is held at its value up to 830 nm.
+    pub held_above: Option<f32>,
 }
 
 impl fmt::Display for BfcReport {
@@ -49,6 +57,16 @@ impl fmt::Display for BfcReport {
         if let Some((a, b, n)) = self.excitation_dropped {
             parts.push(format!(
                 "dropped {n} excitation column(s) {a}–{b} nm (below the rendered range)"
+            ));
+        }
+        if let Some((a, b, n)) = self.emission_dropped {
+            parts.push(format!(
+                "dropped {n} emission row(s) {a}–{b} nm (below the rendered range)"
+            ));
+        }
+        if let Some(l) = self.held_above {
+            parts.push(format!(
+                "no data above {l} nm (reflectance held at its {l} nm value up to {LAMBDA_MAX} nm)"
             ));
         }
         if let Some((a, b)) = self.emission_unmeasured {
@@ -123,11 +141,20 @@ fn sampling(fields: &[&str], source: &str, line_no: usize) -> Result<Sampling> {
         ));
     }
     let ne = ne.round() as usize + 1;
+    let nx = nx.round() as usize;
+    if !(2..=MAX_CELLS).contains(&ne) || !(2..=MAX_CELLS).contains(&nx) {
+        return Err(at(
+            source,
+            line_no,
+            Detail::expected(
+                format!("2 to {MAX_CELLS} emission and excitation wavelengths"),
+                format!("{ne} emission and {nx} excitation"),
+            ),
+        ));
+    }
     Ok(Sampling {
         emission: (0..ne).map(|k| e0 + k as f32 * de).collect(),
-        excitation: (0..nx.round() as usize)
-            .map(|k| x0 + k as f32 * dx)
-            .collect(),
+        excitation: (0..nx).map(|k| x0 + k as f32 * dx).collect(),
     })
 }
 
@@ -284,85 +311,86 @@ fn square_grid(
     sample: Option<String>,
     source: &str,
 ) -> Result<(Reradiation, BfcReport)> {
-    let dx = grid.excitation[1.min(grid.excitation.len() - 1)] - grid.excitation[0];
-    let de = grid.emission[1.min(grid.emission.len() - 1)] - grid.emission[0];
-    if grid.excitation.len() < 2 || (dx - de).abs() > 1e-3 {
-        return Err(Error::file(
-            source,
-            None,
-            format!("excitation step {dx} nm and emission step {de} nm differ: only a common grid is supported"),
-        ));
+    let err = |msg: String| Error::file(source, None, msg);
+    let (x, e) = (&grid.excitation, &grid.emission);
+    let (dx, de) = (x[1] - x[0], e[1] - e[0]);
+    if (dx - de).abs() > 1e-3 {
+        return Err(err(format!(
+            "excitation step {dx} nm and emission step {de} nm differ: only a common grid is supported"
+        )));
     }
-    // Excitation cells that reach into the rendered range (cell centre + h/2 > 360 nm).
-    let first = grid
-        .excitation
-        .iter()
-        .position(|&x| x + 0.5 * dx > LAMBDA_MIN)
-        .unwrap_or(grid.excitation.len());
-    let centres: Vec<f32> = grid.excitation[first..].to_vec();
-    if centres.len() < 2 {
-        return Err(Error::file(
-            source,
-            None,
-            "fewer than 2 excitation wavelengths in the rendered range",
-        ));
+    // Cells that reach into the rendered range (centre + h/2 > 360 nm).
+    let in_range = |w: &f32| w + 0.5 * dx > LAMBDA_MIN;
+    let first = x.iter().position(in_range).unwrap_or(x.len());
+    let first_row = e.iter().position(in_range).unwrap_or(e.len());
+    let centres: Vec<f32> = x[first..].to_vec();
+    if centres.len() < 2 || first_row == e.len() {
+        return Err(err(format!(
+            "no data in the rendered range: excitation {}–{} nm, emission {}–{} nm",
+            x[0],
+            x[x.len() - 1],
+            e[0],
+            e[e.len() - 1]
+        )));
     }
-    let row_of = |lo: f32| {
-        grid.emission
-            .iter()
-            .position(|&e| (e - lo).abs() < 1e-3 * dx)
+    // Every emission row in range sits on a cell of the excitation grid.
+    let cell_of = |w: f32| {
+        let k = (w - centres[0]) / dx;
+        ((k - k.round()).abs() < 1e-3 && k > -0.5).then_some(k.round() as usize)
     };
-    if centres
-        .iter()
-        .any(|&c| c > grid.emission[grid.emission.len() - 1] + 1e-3)
-        || grid
-            .emission
-            .iter()
-            .any(|&e| !centres.iter().any(|&c| (c - e).abs() < 1e-3 * dx))
-    {
-        return Err(Error::file(
-            source,
-            None,
-            "the emission wavelengths must be excitation wavelengths (a common grid)",
-        ));
+    let mut row_at = vec![None; centres.len()];
+    for (r, &w) in e.iter().enumerate().skip(first_row) {
+        match cell_of(w) {
+            Some(o) if o < centres.len() => row_at[o] = Some(r),
+            Some(_) => {
+                return Err(err(format!(
+                    "the excitation wavelengths end at {} nm, before the emission row at {w} nm \
+                     (its reflectance, the diagonal, was not measured)",
+                    x[x.len() - 1]
+                )))
+            }
+            None => {
+                return Err(err(format!(
+                    "emission wavelength {w} nm is not on the excitation grid ({} nm + k·{dx} nm)",
+                    centres[0]
+                )))
+            }
+        }
     }
     let n = centres.len();
     let mut m = vec![vec![0.0f32; n]; n];
-    let mut unmeasured = Vec::new();
-    for (o, &lo) in centres.iter().enumerate() {
-        let Some(r) = row_of(lo) else {
-            unmeasured.push(lo);
-            continue;
-        };
-        for (i, mi) in m.iter_mut().enumerate() {
-            mi[o] = rows[r][first + i];
+    for (o, r) in row_at.iter().enumerate() {
+        if let Some(r) = *r {
+            for (i, mi) in m.iter_mut().enumerate() {
+                mi[o] = rows[r][first + i];
+            }
         }
     }
-    // Unmeasured emission below the first row: no re-emission, D held at the first row's.
-    let d0 =
-        m[first_index(&centres, grid.emission[0], dx)][first_index(&centres, grid.emission[0], dx)];
-    for &lo in &unmeasured {
-        let o = first_index(&centres, lo, dx);
-        m[o][o] = d0;
+    // Unmeasured emission: no re-emission there, D held at the nearest measured row's.
+    let measured: Vec<usize> = (0..n).filter(|&o| row_at[o].is_some()).collect();
+    let unmeasured: Vec<f32> = (0..n)
+        .filter(|&o| row_at[o].is_none())
+        .map(|o| centres[o])
+        .collect();
+    for o in (0..n).filter(|&o| row_at[o].is_none()) {
+        let near = *measured
+            .iter()
+            .min_by_key(|&&k| k.abs_diff(o))
+            .expect("at least one measured row");
+        m[o][o] = m[near][near];
     }
-    let (rr, clamped) = import::square(&centres, &m, source)?;
+    let (rr, clamped) = import::square(&centres, &m, source, true)?;
+    let top = centres[n - 1];
     let report = BfcReport {
         sample,
         clamped,
-        excitation_dropped: (first > 0)
-            .then(|| (grid.excitation[0], grid.excitation[first - 1], first)),
+        excitation_dropped: (first > 0).then(|| (x[0], x[first - 1], first)),
         emission_unmeasured: (!unmeasured.is_empty())
             .then(|| (unmeasured[0], unmeasured[unmeasured.len() - 1])),
+        emission_dropped: (first_row > 0).then(|| (e[0], e[first_row - 1], first_row)),
+        held_above: (top + 0.5 * dx < LAMBDA_MAX).then_some(top),
     };
     Ok((rr, report))
-}
-
-/// The index of the grid centre at `lambda`.
-fn first_index(centres: &[f32], lambda: f32, h: f32) -> usize {
-    centres
-        .iter()
-        .position(|&c| (c - lambda).abs() < 1e-3 * h)
-        .expect("a wavelength on the grid")
 }
 
 #[cfg(test)]
@@ -387,6 +415,9 @@ mod tests {
         assert_eq!(report.sample.as_deref(), Some("Made-up sample"));
         assert_eq!(report.excitation_dropped, Some((350.0, 350.0, 1)));
         assert_eq!(report.emission_unmeasured, Some((360.0, 370.0)));
+        assert_eq!(report.emission_dropped, None);
+        assert_eq!(report.held_above, Some(400.0));
+        assert!((rr.d(829.0) - 0.7).abs() < 1e-6, "D held up to 830 nm");
         assert_eq!(report.clamped.clamped_negative, 1);
         assert_eq!(report.clamped.clamped_anti_stokes, 2);
         // The grid: cells centred at 360 … 400 (10 nm), F = m/h.
@@ -408,6 +439,34 @@ mod tests {
         assert!(report
             .to_string()
             .contains("dropped 1 excitation column(s) 350–350 nm"));
+    }
+
+    /// Emission rows below the range are dropped and reported; excitation that ends before
+    /// the emission does, or a grid that does not line up, is an error.
+    #[test]
+    fn other_layouts_are_dropped_or_named() {
+        let low = tiny("")
+            .replace("380\t400\t10\t6\t350", "350\t370\t10\t6\t350")
+            .replace("\n380\t0.01", "\n350\t0.01")
+            .replace("\n390\t0.02", "\n360\t0.02")
+            .replace("\n400\t0.03", "\n370\t0.03");
+        let (_, report) = parse(&low, "low.BFC").unwrap();
+        assert_eq!(report.emission_dropped, Some((350.0, 350.0, 1)));
+        let short = tiny("").replace("380\t400\t10\t6\t350", "380\t410\t10\t6\t350") + "";
+        let short = short.replace("EOD", "410\t0\t0\t0\t0\t0\t0\nEOD");
+        let e = parse(&short, "short.BFC").unwrap_err().to_string();
+        assert!(
+            e.contains("end at 400 nm, before the emission row at 410 nm"),
+            "{e}"
+        );
+        let huge = tiny("").replace("380\t400\t10\t6\t350", "380\t400\t10\t1e12\t350");
+        let e = parse(&huge, "huge.BFC").unwrap_err().to_string();
+        assert!(
+            e.contains("huge.BFC:6") && e.contains("excitation wavelengths"),
+            "{e}"
+        );
+        let none = tiny("").replace("380\t400\t10\t6\t350", "380\t400\t10\t0.0005\t350");
+        assert!(parse(&none, "none.BFC").is_err());
     }
 
     #[test]

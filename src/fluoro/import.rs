@@ -2,7 +2,7 @@
 
 use super::{Reradiation, MAX_CELLS};
 use crate::error::{Detail, Error};
-use crate::spectrum::{Spectrum, Tabulated};
+use crate::spectrum::{Spectrum, Tabulated, LAMBDA_MAX};
 use crate::Result;
 
 /// What the importer changed: entries set to 0. Each clamped entry is counted once; one
@@ -190,16 +190,18 @@ pub(super) fn parse(text: &str, source: &str) -> Result<(Reradiation, ImportRepo
     }
 
     let m: Vec<Vec<f32>> = rows.iter().map(|r| r[1..].to_vec()).collect();
-    square(&centres, &m, source)
+    square(&centres, &m, source, false)
 }
 
 /// The re-radiation of a square matrix `m[i][o]` (excitation cell i, emission cell o) on
 /// the evenly spaced cell centres `centres`: negatives and anti-Stokes entries set to 0
-/// and counted, the diagonal as D, the rest as F = m/h.
+/// and counted, the diagonal as D, the rest as F = m/h. D is held constant out to the
+/// outer cell edges, and with `hold_to_range` on to the end of the rendered range.
 pub(super) fn square(
     centres: &[f32],
     m: &[Vec<f32>],
     source: &str,
+    hold_to_range: bool,
 ) -> Result<(Reradiation, ImportReport)> {
     let n = centres.len();
     let h = (centres[n - 1] - centres[0]) / (n - 1) as f32;
@@ -234,6 +236,10 @@ pub(super) fn square(
     values.push(diag[0]);
     values.extend_from_slice(&diag);
     values.push(diag[n - 1]);
+    if hold_to_range && knots[n + 1] < LAMBDA_MAX {
+        knots.push(LAMBDA_MAX);
+        values.push(diag[n - 1]);
+    }
     let d = Tabulated::new(knots, values)
         .map_err(|e| Error::file(source, None, format!("diagonal: {e}")))?;
 
