@@ -34,6 +34,7 @@
 //! |z| < 5 (two-sided p ≈ 5.7e-7 each, below 1e-4 over a function's checks).
 
 mod common;
+use common::assert_sample_matches_eval;
 use common::directions::{direction, gauss_legendre, Binned, Grid, Mass, Region};
 use common::stats::{ChiSquare, Rng};
 use glam::{DVec3, Vec3, Vec4};
@@ -279,26 +280,7 @@ fn checked_sample(lobe: &Lobe, wo: Vec3, rng: &mut Rng) -> Option<Vec3> {
     let s = lobe.sample(n, wo, uc, u)?;
     let what = || format!("{lobe:?} at {wo}: {s:?}");
     let (f_cos, pdf) = lobe.eval(n, wo, s.wi);
-    assert!(!s.specular, "{}", what());
-    assert!((s.wi.length() - 1.0).abs() < 1e-5, "{}", what());
-    assert!(s.pdf.x > 0.0, "hero pdf 0: {}", what());
-    for k in 0..4 {
-        if pdf[k] == 0.0 {
-            assert!(s.pdf[k] == 0.0 && s.f_cos[k] == 0.0, "lane {k}: {}", what());
-            continue;
-        }
-        assert!(
-            rel(s.pdf[k], pdf[k]) < 1e-4,
-            "lane {k}: eval pdf {pdf}: {}",
-            what()
-        );
-        let (sampled, evaluated) = (s.f_cos[k] / s.pdf[k], f_cos[k] / pdf[k]);
-        assert!(
-            rel(sampled, evaluated) < 1e-4,
-            "lane {k}: f/pdf {sampled} vs eval {evaluated}: {}",
-            what()
-        );
-    }
+    assert_sample_matches_eval(&s, f_cos, pdf, &what);
     // The visible normal the sampler drew from `u`, on wo's side of the surface.
     let front = wo.dot(n) > 0.0;
     let ns = if front { n } else { -n };

@@ -29,6 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from materials import read_rgb  # the EXR reader of the materials comparison
+
 ROOT = Path(__file__).resolve().parents[2]
 ALPHA = 0.2
 ETA = 1.5
@@ -69,14 +71,8 @@ material = "plate"
 
 
 def mean_rgb(path):
-    import mitsuba as mi
-    b = mi.Bitmap(str(path))
-    names = [b.struct_()[k].name for k in range(b.channel_count())]
-    t = mi.TensorXf(b)
-    h, w, c = t.shape
-    flat = list(t.array)
-    idx = [names.index(n) for n in ("R", "G", "B")]
-    return [sum(flat[(p * c) + k] for p in range(h * w)) / (h * w) for k in idx]
+    px = read_rgb(path)
+    return [sum(v[c] for v in px.values()) / len(px) for c in range(3)]
 
 
 def stokes_albedo(rho, theta, spp, tmp, white):

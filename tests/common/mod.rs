@@ -294,3 +294,35 @@ pub fn mono_estimate(
         ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt(),
     )
 }
+
+/// A non-specular BSDF sample checked against `eval` at its direction (`f_cos`, `pdf`):
+/// unit length, a positive hero pdf, and per lane the same pdf and the same f/pdf (to
+/// 1e-4), or zero value and pdf where eval has no density. `what` describes the case.
+pub fn assert_sample_matches_eval(
+    s: &stokes::bsdf::BsdfSample,
+    f_cos: glam::Vec4,
+    pdf: glam::Vec4,
+    what: &dyn Fn() -> String,
+) {
+    let rel = |a: f32, b: f32| (a - b).abs() / b.abs().max(1e-30);
+    assert!(!s.specular, "{}", what());
+    assert!((s.wi.length() - 1.0).abs() < 1e-5, "{}", what());
+    assert!(s.pdf.x > 0.0, "hero pdf 0: {}", what());
+    for k in 0..4 {
+        if pdf[k] == 0.0 {
+            assert!(s.pdf[k] == 0.0 && s.f_cos[k] == 0.0, "lane {k}: {}", what());
+            continue;
+        }
+        assert!(
+            rel(s.pdf[k], pdf[k]) < 1e-4,
+            "lane {k}: eval pdf {pdf}: {}",
+            what()
+        );
+        let (sampled, evaluated) = (s.f_cos[k] / s.pdf[k], f_cos[k] / pdf[k]);
+        assert!(
+            rel(sampled, evaluated) < 1e-4,
+            "lane {k}: f/pdf {sampled} vs eval {evaluated}: {}",
+            what()
+        );
+    }
+}
