@@ -109,6 +109,7 @@ impl Coated {
             .map(|l| l as f32)
             .collect();
         let mut last: Option<(f32, f32, f32)> = None;
+        let rough = RoughInterior::new(&ior, alpha);
         let scale: Vec<f32> = grid
             .iter()
             .map(|&l| {
@@ -116,9 +117,10 @@ impl Coated {
                 let rho_r = match &base {
                     CoatBase::Lambertian(b) => {
                         let tau_l = tau.eval(l);
-                        let r = match last {
-                            Some((e, t, r)) if e == eta && t == tau_l => r,
-                            _ => internal_reflectance(eta, tau_l, alpha),
+                        let r = match (last, &rough) {
+                            (Some((e, t, r)), _) if e == eta && t == tau_l => r,
+                            (_, Some(rough)) => rough.at(eta).reflectance(eta, tau_l),
+                            (_, None) => internal_reflectance(eta, tau_l, alpha),
                         };
                         last = Some((eta, tau_l, r));
                         b.diagonal().eval(l) * r
@@ -337,17 +339,94 @@ pub fn internal_reflectance(eta: f32, tau: f32, alpha: f32) -> f32 {
         }
         return (2.0 * sum / n as f64) as f32;
     }
-    let n = 64;
-    let (mut absorbed, mut clear) = (0.0f64, 0.0f64);
-    for i in 0..n {
-        let mu = (i as f64 + 0.5) / n as f64;
-        let e = f64::from(albedo::reflection_albedo(mu as f32, 1.0 / eta, alpha));
-        absorbed += e * (-2.0 * f64::from(tau) / mu).exp() * mu;
-        clear += e * mu;
+    Interior::new(eta, alpha).reflectance(eta, tau)
+}
+
+/// Midpoints in μ of the rough coat's internal-reflectance integral.
+const N_INTERIOR: usize = 64;
+
+/// What a rough coat's internal reflectance needs at one index, whatever the absorption:
+/// the single-scattering albedo from inside, E(μ, 1/η, α), at the μ midpoints, and the
+/// diffuse albedo from outside, r_ext.
+#[derive(Clone)]
+struct Interior {
+    e: [f64; N_INTERIOR],
+    r_ext: f64,
+}
+
+impl Interior {
+    fn new(eta: f32, alpha: f32) -> Interior {
+        let mut e = [0.0; N_INTERIOR];
+        for (i, e) in e.iter_mut().enumerate() {
+            let mu = (i as f64 + 0.5) / N_INTERIOR as f64;
+            *e = f64::from(albedo::reflection_albedo(mu as f32, 1.0 / eta, alpha));
+        }
+        Interior {
+            e,
+            r_ext: diffuse_external_albedo(eta, alpha),
+        }
     }
-    let r_ext = diffuse_external_albedo(eta, alpha);
-    let r_recip = 1.0 - (1.0 - r_ext) / f64::from(eta * eta);
-    (absorbed / clear * r_recip) as f32
+
+    /// r at index `eta` and optical depth `tau`, scaled to reciprocity.
+    fn reflectance(&self, eta: f32, tau: f32) -> f32 {
+        let (mut absorbed, mut clear) = (0.0f64, 0.0f64);
+        for (i, &e) in self.e.iter().enumerate() {
+            let mu = (i as f64 + 0.5) / N_INTERIOR as f64;
+            absorbed += e * (-2.0 * f64::from(tau) / mu).exp() * mu;
+            clear += e * mu;
+        }
+        let r_recip = 1.0 - (1.0 - self.r_ext) / f64::from(eta * eta);
+        (absorbed / clear * r_recip) as f32
+    }
+}
+
+/// [`Interior`] over a dispersive coat's range of indices: computed at nodes 0.002 apart
+/// and interpolated, so that a coat whose index changes at every nm costs tens of
+/// quadratures, not hundreds.
+struct RoughInterior {
+    eta0: f32,
+    step: f32,
+    nodes: Vec<Interior>,
+}
+
+impl RoughInterior {
+    /// None for a smooth coat.
+    fn new(ior: &Ior, alpha: f32) -> Option<RoughInterior> {
+        if alpha < MIN_ALPHA {
+            return None;
+        }
+        let etas: Vec<f32> = (LAMBDA_MIN as u32..=LAMBDA_MAX as u32)
+            .map(|l| ior.eval(l as f32))
+            .collect();
+        let lo = etas.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = etas.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let step = 0.002;
+        let n = ((hi - lo) / step).ceil() as usize + 1;
+        let nodes = (0..n)
+            .map(|k| Interior::new(lo + k as f32 * step, alpha))
+            .collect();
+        Some(RoughInterior {
+            eta0: lo,
+            step,
+            nodes,
+        })
+    }
+
+    /// The ingredients at `eta`: a node's where it is one (a constant index), else
+    /// linear between the two around it.
+    fn at(&self, eta: f32) -> Interior {
+        let x = ((eta - self.eta0) / self.step).max(0.0);
+        let k = (x as usize).min(self.nodes.len() - 1);
+        let w = f64::from(x - k as f32);
+        if w == 0.0 || k + 1 == self.nodes.len() {
+            return self.nodes[k].clone();
+        }
+        let (a, b) = (&self.nodes[k], &self.nodes[k + 1]);
+        Interior {
+            e: std::array::from_fn(|i| a.e[i] + w * (b.e[i] - a.e[i])),
+            r_ext: a.r_ext + w * (b.r_ext - a.r_ext),
+        }
+    }
 }
 
 /// r_ext = 2∫₀¹ E(μ, η, α)·μ dμ: what a rough coat reflects of diffuse light from outside,
@@ -402,6 +481,20 @@ mod tests {
                 })
                 .sum();
             assert!(single < f64::from(r), "η {eta} α {alpha}: {single} vs {r}");
+        }
+        // A dispersive rough coat's interpolated r against the direct computation.
+        let ior = Ior::Cauchy {
+            a: 1.45,
+            b: 20_000.0,
+        };
+        let rough = RoughInterior::new(&ior, 0.25).unwrap();
+        for l in [400.0f32, 517.3, 700.0] {
+            let eta = ior.eval(l);
+            let (a, b) = (
+                rough.at(eta).reflectance(eta, 0.2),
+                internal_reflectance(eta, 0.2, 0.25),
+            );
+            assert!((a - b).abs() < 1e-4, "{l} nm: {a} vs {b}");
         }
         // Absorption only lowers what comes back.
         assert!(internal_reflectance(1.5, 0.3, 0.0) < internal_reflectance(1.5, 0.0, 0.0));
