@@ -22,6 +22,7 @@ pub mod output;
 pub mod sampler;
 pub mod scene;
 pub mod simd;
+pub mod spectral_exr;
 pub mod spectrum;
 pub mod tools;
 

@@ -9,6 +9,7 @@ use crate::color;
 use crate::error::{Detail, Error};
 use crate::header::RenderHeader;
 use crate::integrator::render::{Film, ProgressiveResult};
+use crate::spectral_exr;
 use crate::Result;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -182,6 +183,15 @@ pub fn variance_path(path: &Path) -> PathBuf {
     path.with_file_name(format!("{stem}.variance.exr"))
 }
 
+/// A named channel beside R, G and B (a spectral bin, an alpha), pixel-major like the RGB.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plane {
+    /// The channel name.
+    pub name: String,
+    /// One value per pixel, row by row.
+    pub data: Vec<f32>,
+}
+
 /// Writes a float RGB EXR; `metadata` goes into the header as text attributes.
 pub fn write_exr(
     path: &Path,
@@ -190,34 +200,62 @@ pub fn write_exr(
     rgb: &[[f32; 3]],
     metadata: &[(String, String)],
 ) -> Result<()> {
+    write_exr_planes(path, width, height, rgb, &[], metadata, &[])
+}
+
+/// Writes a float EXR of R, G, B and `planes`; `metadata` goes into the header as
+/// `stokes:*` text attributes and `plain` as text attributes under their own names (the
+/// spectral layout's `spectralLayoutVersion`, `emissiveUnits`).
+pub fn write_exr_planes(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    planes: &[Plane],
+    metadata: &[(String, String)],
+    plain: &[(&str, &str)],
+) -> Result<()> {
     use exr::meta::attribute::{AttributeValue, Text};
     use exr::prelude::*;
-    if rgb.len() != width as usize * height as usize {
+    let n = width as usize * height as usize;
+    if let Some(bad) = std::iter::once(rgb.len())
+        .chain(planes.iter().map(|p| p.data.len()))
+        .find(|&len| len != n)
+    {
         // `crate::Error`: exr's prelude has an `Error` of its own.
         return Err(crate::Error::file(
             path,
             None,
-            format!("{} pixels given for a {width}x{height} image", rgb.len()),
+            format!("{bad} pixels given for a {width}x{height} image"),
         ));
     }
-    let w = width as usize;
-    let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
-        let c = rgb[p.y() * w + p.x()];
-        (c[0], c[1], c[2])
-    });
+    let mut list: Vec<AnyChannel<FlatSamples>> = (0..3)
+        .map(|c| {
+            let data = rgb.iter().map(|p| p[c]).collect();
+            AnyChannel::new(["R", "G", "B"][c], FlatSamples::F32(data))
+        })
+        .collect();
+    list.extend(
+        planes
+            .iter()
+            .map(|p| AnyChannel::new(p.name.as_str(), FlatSamples::F32(p.data.clone()))),
+    );
     let mut attrs = LayerAttributes::named("");
     attrs.software_name = Some(Text::from("stokes"));
+    let text = |v: &str| AttributeValue::Text(Text::from(v));
     for (k, v) in metadata {
-        attrs.other.insert(
-            Text::from(format!("stokes:{k}").as_str()),
-            AttributeValue::Text(Text::from(v.as_str())),
-        );
+        attrs
+            .other
+            .insert(Text::from(format!("stokes:{k}").as_str()), text(v));
+    }
+    for (k, v) in plain {
+        attrs.other.insert(Text::from(*k), text(v));
     }
     let layer = Layer::new(
-        (w, height as usize),
+        (width as usize, height as usize),
         attrs,
         Encoding::SMALL_LOSSLESS,
-        channels,
+        AnyChannels::sort(list.into()),
     );
     let image = Image::from_layer(layer);
     write_atomically(path, |tmp| {
@@ -226,6 +264,69 @@ pub fn write_exr(
             .to_file(tmp)
             .map_err(|e| format!("cannot write EXR: {e}").into())
     })
+}
+
+/// Every channel of an EXR's first layer, in the file's (alphabetical) order.
+#[derive(Debug, Clone)]
+pub struct Channels {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// The channels, as 32-bit floats.
+    pub planes: Vec<Plane>,
+    /// The header's text attributes, by their full names.
+    pub text: Vec<(String, String)>,
+}
+
+impl Channels {
+    /// Reads every channel and text attribute of the first layer of `path`.
+    pub fn read(path: &Path) -> Result<Channels> {
+        let image = exr::prelude::read_first_flat_layer_from_file(path)
+            .map_err(|e| crate::Error::file(path, None, format!("cannot read EXR: {e}")))?;
+        let layer = image.layer_data;
+        let planes = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| Plane {
+                name: c.name.to_string(),
+                data: c.sample_data.values_as_f32().collect(),
+            })
+            .collect();
+        let mut text = Vec::new();
+        let all = layer.attributes.other.iter().chain(&image.attributes.other);
+        for (k, v) in all {
+            if let exr::meta::attribute::AttributeValue::Text(t) = v {
+                text.push((k.to_string(), t.to_string()));
+            }
+        }
+        Ok(Channels {
+            width: layer.size.width() as u32,
+            height: layer.size.height() as u32,
+            planes,
+            text,
+        })
+    }
+
+    /// The `stokes:*` attributes, without the prefix.
+    pub fn stokes_attributes(&self) -> Vec<(String, String)> {
+        self.text
+            .iter()
+            .filter_map(|(k, v)| Some((k.strip_prefix("stokes:")?.to_string(), v.clone())))
+            .collect()
+    }
+
+    /// Splits off R, G and B as pixels, leaving the other channels; `None` if one of the
+    /// three is missing.
+    pub fn take_rgb(&mut self) -> Option<Vec<[f32; 3]>> {
+        let mut take = |name: &str| {
+            let i = self.planes.iter().position(|p| p.name == name)?;
+            Some(self.planes.remove(i).data)
+        };
+        let (r, g, b) = (take("R")?, take("G")?, take("B")?);
+        Some((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
+    }
 }
 
 /// An image read back: width, height, RGB pixels and `stokes:*` header attributes.
@@ -324,22 +425,28 @@ impl RenderFiles {
         check_outputs(&named)
     }
 
-    /// Writes the images of `film` with `header`'s attributes.
+    /// Writes the images of `film` with `header`'s attributes; a spectral film's bins go
+    /// into both EXRs in the OpenEXR spectral layout, beside R, G and B.
     pub fn write_images(&self, film: &Film, header: &RenderHeader) -> Result<()> {
         let (w, h) = (film.width, film.height);
         let meta = header.attributes();
         let mean = film.mean();
-        write_exr(&self.exr, w, h, &mean, &meta)?;
+        let planes = film.spectral_mean();
+        let layout = spectral_exr::layout_attributes(&planes, false);
+        write_exr_planes(&self.exr, w, h, &mean, &planes, &meta, layout)?;
         if self.png {
             write_png(&self.exr.with_extension("png"), w, h, &mean)?;
         }
         if self.variance {
-            write_exr(
+            let layout = spectral_exr::layout_attributes(&planes, true);
+            write_exr_planes(
                 &variance_path(&self.exr),
                 w,
                 h,
                 &film.variance_of_mean(),
+                &film.spectral_variance_of_mean(),
                 &meta,
+                layout,
             )?;
         }
         Ok(())

@@ -9,10 +9,13 @@ use super::{PathOptions, PathStats};
 use crate::color;
 use crate::error::{Detail, Error};
 use crate::method::{Layout, Method, Rays};
+use crate::output::Plane;
 use crate::scene::RenderDesc;
 use crate::scene::Scene;
 use crate::simd::{F4, F8};
+use crate::spectral_exr::Bins;
 use crate::spectrum;
+use crate::spectrum::SampledWavelengths;
 use crate::Result;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -35,6 +38,8 @@ pub struct RenderOptions {
     pub method: Method,
     /// Which pixel samples share a packet (packet modes; the image does not depend on it).
     pub layout: Layout,
+    /// Wavelength bins to accumulate beside RGB (`--spectral-bins`), if any.
+    pub bins: Option<Bins>,
 }
 
 impl Default for RenderOptions {
@@ -49,6 +54,7 @@ impl Default for RenderOptions {
             threads: 0,
             method: Method::default(),
             layout: Layout::default(),
+            bins: None,
         }
     }
 }
@@ -89,7 +95,8 @@ impl RenderOptions {
     }
 }
 
-/// Per-pixel sums of linear sRGB samples: the mean and the variance of the mean.
+/// Per-pixel sums of linear sRGB samples and, for a spectral film, of binned spectral
+/// radiance: the mean and the variance of the mean of each.
 #[derive(Debug, Clone)]
 pub struct Film {
     /// Width.
@@ -100,10 +107,27 @@ pub struct Film {
     pub spp: u32,
     sum: Vec<[f64; 3]>,
     sum_sq: Vec<[f64; 3]>,
+    spectral: Option<SpectralSums>,
+}
+
+/// A spectral film's per-pixel, per-bin sums, pixel-major (`pixel · bins + bin`).
+#[derive(Debug, Clone)]
+struct SpectralSums {
+    bins: Bins,
+    sum: Vec<f64>,
+    sum_sq: Vec<f64>,
+}
+
+/// `n` zeros, or `None` if their memory cannot be had.
+fn zeros<T: Clone + Default>(n: usize) -> Option<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).ok()?;
+    v.resize(n, T::default());
+    Some(v)
 }
 
 impl Film {
-    /// An empty film.
+    /// An empty RGB film.
     pub fn new(width: u32, height: u32) -> Film {
         let n = width as usize * height as usize;
         Film {
@@ -112,33 +136,50 @@ impl Film {
             spp: 0,
             sum: vec![[0.0; 3]; n],
             sum_sq: vec![[0.0; 3]; n],
+            spectral: None,
         }
     }
 
-    /// An empty film, or an error naming the size if its memory cannot be had.
+    /// An empty RGB film, or an error naming the size if its memory cannot be had.
     pub fn try_new(width: u32, height: u32) -> Result<Film> {
+        Film::try_with_bins(width, height, None)
+    }
+
+    /// An empty film that also accumulates `bins`, or an error naming the size if its
+    /// memory cannot be had.
+    pub fn try_with_bins(width: u32, height: u32, bins: Option<Bins>) -> Result<Film> {
         let n = width as usize * height as usize;
-        let alloc = || -> Option<Vec<[f64; 3]>> {
-            let mut v = Vec::new();
-            v.try_reserve_exact(n).ok()?;
-            v.resize(n, [0.0; 3]);
-            Some(v)
-        };
+        let channels = 3 + bins.map_or(0, |b| b.count as usize);
         let fail = || {
             Error::Other(format!(
-                "cannot allocate a film of {width}x{height} pixels ({:.1} GB)",
-                n as f64 * 48.0 / 1e9
+                "cannot allocate a film of {width}x{height} pixels and {channels} channels ({:.1} GB)",
+                n as f64 * channels as f64 * 16.0 / 1e9
             ))
         };
-        let sum = alloc().ok_or_else(fail)?;
-        let sum_sq = alloc().ok_or_else(fail)?;
+        let spectral = match bins {
+            Some(bins) => {
+                let m = n * bins.count as usize;
+                Some(SpectralSums {
+                    bins,
+                    sum: zeros(m).ok_or_else(fail)?,
+                    sum_sq: zeros(m).ok_or_else(fail)?,
+                })
+            }
+            None => None,
+        };
         Ok(Film {
             width,
             height,
             spp: 0,
-            sum,
-            sum_sq,
+            sum: zeros(n).ok_or_else(fail)?,
+            sum_sq: zeros(n).ok_or_else(fail)?,
+            spectral,
         })
+    }
+
+    /// The wavelength bins this film accumulates, if it is spectral.
+    pub fn bins(&self) -> Option<Bins> {
+        self.spectral.as_ref().map(|s| s.bins)
     }
 
     /// The pixel means (box filter: each sample counts for the pixel it fell in).
@@ -149,21 +190,141 @@ impl Film {
 
     /// The estimated variance of each pixel mean: the sample variance over `spp`.
     pub fn variance_of_mean(&self) -> Vec<[f32; 3]> {
-        let n = self.spp as f64;
-        if n < 2.0 {
-            return vec![[0.0; 3]; self.sum.len()];
-        }
         self.sum
             .iter()
             .zip(&self.sum_sq)
-            .map(|(s, q)| {
-                std::array::from_fn(|c| {
-                    let m = s[c] / n;
-                    let var = ((q[c] - n * m * m) / (n - 1.0)).max(0.0);
-                    (var / n) as f32
-                })
+            .map(|(s, q)| std::array::from_fn(|c| variance_of_mean(s[c], q[c], self.spp)))
+            .collect()
+    }
+
+    /// The bin-averaged spectral radiance of every pixel, one plane per bin named as the
+    /// spectral layout names it; empty for an RGB film.
+    pub fn spectral_mean(&self) -> Vec<Plane> {
+        let n = self.spp.max(1) as f64;
+        self.spectral_planes(|s, _| (s / n) as f32)
+    }
+
+    /// The variance of each pixel's bin means, planes as in [`Film::spectral_mean`].
+    pub fn spectral_variance_of_mean(&self) -> Vec<Plane> {
+        self.spectral_planes(|s, q| variance_of_mean(s, q, self.spp))
+    }
+
+    /// One plane per bin of `value(sum, sum of squares)`.
+    fn spectral_planes(&self, value: impl Fn(f64, f64) -> f32) -> Vec<Plane> {
+        let Some(s) = &self.spectral else {
+            return Vec::new();
+        };
+        let nb = s.bins.count as usize;
+        s.bins
+            .channel_names()
+            .into_iter()
+            .enumerate()
+            .map(|(b, name)| Plane {
+                name,
+                data: (0..self.sum.len())
+                    .map(|i| value(s.sum[i * nb + b], s.sum_sq[i * nb + b]))
+                    .collect(),
             })
             .collect()
+    }
+
+    /// The film's rows in groups of `rows`, each with its RGB and spectral sums.
+    fn row_groups(&mut self, rows: usize) -> Vec<RowSums<'_>> {
+        let px = rows * self.width as usize;
+        let rgb = self.sum.chunks_mut(px).zip(self.sum_sq.chunks_mut(px));
+        match &mut self.spectral {
+            Some(s) => {
+                let (bins, k) = (s.bins, px * s.bins.count as usize);
+                rgb.zip(s.sum.chunks_mut(k).zip(s.sum_sq.chunks_mut(k)))
+                    .map(|((sum, sq), (ssum, ssq))| RowSums {
+                        sum,
+                        sq,
+                        bins: Some(bins),
+                        spectral_sum: ssum,
+                        spectral_sq: ssq,
+                    })
+                    .collect()
+            }
+            None => rgb
+                .map(|(sum, sq)| RowSums {
+                    sum,
+                    sq,
+                    bins: None,
+                    spectral_sum: &mut [],
+                    spectral_sq: &mut [],
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The variance of a mean of `n` samples from their sum and sum of squares.
+fn variance_of_mean(sum: f64, sum_sq: f64, n: u32) -> f32 {
+    let n = n as f64;
+    if n < 2.0 {
+        return 0.0;
+    }
+    let m = sum / n;
+    let var = ((sum_sq - n * m * m) / (n - 1.0)).max(0.0);
+    (var / n) as f32
+}
+
+/// A group of rows' sums, handed to one rayon job.
+struct RowSums<'a> {
+    sum: &'a mut [[f64; 3]],
+    sq: &'a mut [[f64; 3]],
+    bins: Option<Bins>,
+    spectral_sum: &'a mut [f64],
+    spectral_sq: &'a mut [f64],
+}
+
+impl RowSums<'_> {
+    /// Adds pixel `i`'s sample: its colour `c` and, if spectral, each lane's radiance
+    /// `l` at `lambda` to the bin holding that wavelength.
+    #[inline]
+    fn add(&mut self, i: usize, c: Vec3, lambda: Vec4, l: Vec4) {
+        accumulate(&mut self.sum[i], &mut self.sq[i], c);
+        if let Some(bins) = self.bins {
+            let nb = bins.count as usize;
+            let range = i * nb..(i + 1) * nb;
+            accumulate_bins(
+                &bins,
+                lambda,
+                l,
+                &mut self.spectral_sum[range.clone()],
+                &mut self.spectral_sq[range],
+            );
+        }
+    }
+}
+
+/// Adds one pixel sample to its bin sums. Lane k's value `l_k` already carries its MIS
+/// weight (lanes that were dropped or not traced carry 0 and add nothing), so its estimate
+/// of the bin-averaged radiance is `l_k / (p(λ_k) · width)` in the bin holding `λ_k`.
+/// Lanes that share a bin are summed before squaring: the variance is that of the pixel
+/// sample's estimate, as for RGB.
+#[inline]
+fn accumulate_bins(bins: &Bins, lambda: Vec4, l: Vec4, sum: &mut [f64], sq: &mut [f64]) {
+    let scale = 1.0 / (SampledWavelengths::pdf() as f64 * bins.width() as f64);
+    let mut hit: [(usize, f64); 4] = [(usize::MAX, 0.0); 4];
+    let mut used = 0;
+    for (lk, vk) in lambda.to_array().into_iter().zip(l.to_array()) {
+        if vk == 0.0 {
+            continue;
+        }
+        let Some(b) = bins.index(lk) else { continue };
+        let v = vk as f64 * scale;
+        match hit[..used].iter_mut().find(|h| h.0 == b) {
+            Some(h) => h.1 += v,
+            None => {
+                hit[used] = (b, v);
+                used += 1;
+            }
+        }
+    }
+    for &(b, v) in &hit[..used] {
+        sum[b] += v;
+        sq[b] += v * v;
     }
 }
 
@@ -335,9 +496,8 @@ fn pass<F: Width, const MEDIA: bool>(
 ) -> PathStats {
     let (scene, opts) = (job.scene, job.opts);
     let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
-    film.sum
-        .par_chunks_mut(ROWS * w)
-        .zip(film.sum_sq.par_chunks_mut(ROWS * w))
+    film.row_groups(ROWS)
+        .into_par_iter()
         .enumerate()
         // One tracer and its buffers per rayon job, reused over its rows.
         .map_init(
@@ -346,9 +506,9 @@ fn pass<F: Width, const MEDIA: bool>(
                 tracer.lockstep = opts.method.rays == Rays::Lockstep;
                 (tracer, Vec::new(), Vec::new())
             },
-            |(tracer, results, lambdas), (chunk, (sum, sq))| {
+            |(tracer, results, lambdas), (chunk, mut sums)| {
                 let mut st = PathStats::default();
-                let rows = sum.len() / w;
+                let rows = sums.sum.len() / w;
                 let y0 = chunk * ROWS;
                 let mut done = 0;
                 while done < job.count {
@@ -368,10 +528,9 @@ fn pass<F: Width, const MEDIA: bool>(
                             let slot = i * n as usize + k as usize;
                             let poison =
                                 poisoned(job.inject_nonfinite_every, pixels, pixel, s0 + k);
-                            if let Some(c) =
-                                finish_sample(lambdas[slot], results[slot], poison, &mut st)
-                            {
-                                accumulate(&mut sum[i], &mut sq[i], c);
+                            let (lambda, l) = (lambdas[slot], results[slot]);
+                            if let Some(c) = finish_sample(lambda, l, poison, &mut st) {
+                                sums.add(i, c, lambda, l);
                             }
                         }
                     }
@@ -453,7 +612,7 @@ pub fn render(
 ) -> Result<RenderResult> {
     opts.validate()?;
     let pool = thread_pool(opts.threads)?;
-    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    let mut film = Film::try_with_bins(scene.camera.width, scene.camera.height, opts.bins)?;
     let start = Instant::now();
     let stats = pool.install(|| render_pass(scene, opts, &mut film, 0, opts.spp, on_row));
     Ok(RenderResult {
@@ -582,7 +741,7 @@ pub fn render_progressive(
     let max_spp = sample_count(prog.first_sample, prog.max_spp)?;
     let batch = prog.batch.max(1);
     let pool = thread_pool(opts.threads)?;
-    let mut film = Film::try_new(scene.camera.width, scene.camera.height)?;
+    let mut film = Film::try_with_bins(scene.camera.width, scene.camera.height, opts.bins)?;
     let mut stats = PathStats::default();
     let mut passes = 0u32;
     let start = Instant::now();

@@ -7,7 +7,8 @@
 
 use crate::error::Error;
 use crate::header::{format_ranges, normalise, RenderHeader, SampleRange, VERSION};
-use crate::output::{check_outputs, read_exr, variance_path, write_exr};
+use crate::output::{check_outputs, variance_path, write_exr_planes, Channels, Plane};
+use crate::spectral_exr;
 use crate::Result;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -23,6 +24,8 @@ pub struct Part {
     pub height: u32,
     /// Pixel means (or, in a variance image, variances of the mean).
     pub pixels: Vec<[f32; 3]>,
+    /// The channels beside R, G and B (a spectral render's bins), likewise.
+    pub planes: Vec<Plane>,
     /// What it holds and how it was made.
     pub header: RenderHeader,
 }
@@ -31,14 +34,21 @@ impl Part {
     /// Reads an EXR and its header; errors name the file and the missing or malformed
     /// attribute.
     pub fn read(path: &Path) -> Result<Part> {
-        let (width, height, pixels, meta) = read_exr(path)?;
-        let attrs: BTreeMap<String, String> = meta.into_iter().collect();
+        let mut image = Channels::read(path)?;
+        let attrs: BTreeMap<String, String> = image.stokes_attributes().into_iter().collect();
         let header = RenderHeader::from_attributes(path, &attrs)?;
+        let pixels = image.take_rgb().ok_or_else(|| {
+            Error::about(
+                path,
+                "has no R, G and B channels: it is not a stokes render",
+            )
+        })?;
         Ok(Part {
             path: path.to_path_buf(),
-            width,
-            height,
+            width: image.width,
+            height: image.height,
             pixels,
+            planes: image.planes,
             header,
         })
     }
@@ -63,13 +73,14 @@ impl Part {
         }
         let v = Part::read(&vp)?;
         if (v.width, v.height) != (self.width, self.height)
+            || plane_names(&v.planes) != plane_names(&self.planes)
             || v.header.ranges != self.header.ranges
             || v.header.scene_hash != self.header.scene_hash
         {
             return Err(Error::about(
                 vp,
                 format!(
-                    "does not belong to {} (size, spp, samples or scene differ)",
+                    "does not belong to {} (size, channels, spp, samples or scene differ)",
                     self.path.display()
                 ),
             ));
@@ -91,6 +102,13 @@ pub fn check_compatible(parts: &[Part]) -> Result<()> {
             return unlike(format!(
                 "is {}x{} but {pa} is {}x{}: parts must have the same size",
                 b.width, b.height, a.width, a.height
+            ));
+        }
+        if plane_names(&a.planes) != plane_names(&b.planes) {
+            return unlike(format!(
+                "has {} but {pa} has {}: parts must have the same channels (render them with the same --spectral-bins and --spectral-range)",
+                describe_planes(&b.planes),
+                describe_planes(&a.planes)
             ));
         }
         if a.header.scene_hash != b.header.scene_hash {
@@ -132,19 +150,80 @@ pub fn check_compatible(parts: &[Part]) -> Result<()> {
     Ok(())
 }
 
+/// The names of `planes`, in order.
+pub fn plane_names(planes: &[Plane]) -> Vec<&str> {
+    planes.iter().map(|p| p.name.as_str()).collect()
+}
+
+/// "no channels beside R, G, B" or "N channels beside R, G, B (first … last)".
+fn describe_planes(planes: &[Plane]) -> String {
+    match (planes.first(), planes.last()) {
+        (Some(a), Some(b)) => format!(
+            "{} channels beside R, G, B ({} … {})",
+            planes.len(),
+            a.name,
+            b.name
+        ),
+        _ => "no channels beside R, G, B".into(),
+    }
+}
+
+/// The spp-weighted mean of one value over the parts, `value(i)` being part i's.
+fn pooled_mean(spp: &[f64], value: impl Fn(usize) -> f32) -> f32 {
+    let total: f64 = spp.iter().sum();
+    let s: f64 = spp
+        .iter()
+        .enumerate()
+        .map(|(i, n)| n * value(i) as f64)
+        .sum();
+    (s / total) as f32
+}
+
+/// The variance of the merged mean `m` of one value from the parts' spp `n_i`, means
+/// `mean(i)` and variances of the mean `var(i)` ([`pooled_variance`]).
+fn pooled_var(spp: &[f64], m: f32, mean: impl Fn(usize) -> f32, var: impl Fn(usize) -> f32) -> f32 {
+    let total: f64 = spp.iter().sum();
+    if total < 2.0 {
+        return 0.0;
+    }
+    let m = m as f64;
+    let ss: f64 = spp
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| {
+            let d = mean(i) as f64 - m;
+            (n - 1.0) * n * var(i) as f64 + n * d * d
+        })
+        .sum();
+    (ss / (total - 1.0) / total).max(0.0) as f32
+}
+
+/// Each part's spp, as floats.
+fn spps(parts: &[Part]) -> Vec<f64> {
+    parts.iter().map(|p| p.spp() as f64).collect()
+}
+
 /// The spp-weighted mean of the parts' pixels.
 pub fn weighted_mean(parts: &[Part]) -> Vec<[f32; 3]> {
-    let total: f64 = parts.iter().map(|p| p.spp() as f64).sum();
+    let spp = spps(parts);
     let n = parts.first().map_or(0, |p| p.pixels.len());
     (0..n)
-        .map(|i| {
-            std::array::from_fn(|c| {
-                let s: f64 = parts
-                    .iter()
-                    .map(|p| p.spp() as f64 * p.pixels[i][c] as f64)
-                    .sum();
-                (s / total) as f32
-            })
+        .map(|i| std::array::from_fn(|c| pooled_mean(&spp, |k| parts[k].pixels[i][c])))
+        .collect()
+}
+
+/// The spp-weighted mean of the parts' other channels (checked alike).
+pub fn weighted_mean_planes(parts: &[Part]) -> Vec<Plane> {
+    let spp = spps(parts);
+    let Some(first) = parts.first() else {
+        return Vec::new();
+    };
+    (0..first.planes.len())
+        .map(|c| Plane {
+            name: first.planes[c].name.clone(),
+            data: (0..first.planes[c].data.len())
+                .map(|i| pooled_mean(&spp, |k| parts[k].planes[c].data[i]))
+                .collect(),
         })
         .collect()
 }
@@ -158,25 +237,43 @@ pub fn pooled_variance(
     variances: &[Vec<[f32; 3]>],
     mean: &[[f32; 3]],
 ) -> Vec<[f32; 3]> {
-    let total: f64 = parts.iter().map(|p| p.spp() as f64).sum();
+    let spp = spps(parts);
     (0..mean.len())
         .map(|i| {
             std::array::from_fn(|c| {
-                if total < 2.0 {
-                    return 0.0;
-                }
-                let m = mean[i][c] as f64;
-                let ss: f64 = parts
-                    .iter()
-                    .zip(variances)
-                    .map(|(p, v)| {
-                        let n = p.spp() as f64;
-                        let d = p.pixels[i][c] as f64 - m;
-                        (n - 1.0) * n * v[i][c] as f64 + n * d * d
-                    })
-                    .sum();
-                (ss / (total - 1.0) / total).max(0.0) as f32
+                pooled_var(
+                    &spp,
+                    mean[i][c],
+                    |k| parts[k].pixels[i][c],
+                    |k| variances[k][i][c],
+                )
             })
+        })
+        .collect()
+}
+
+/// [`pooled_variance`] of the other channels: `variances[k]` are part k's variance
+/// planes, `mean` the merged planes.
+pub fn pooled_variance_planes(
+    parts: &[Part],
+    variances: &[Vec<Plane>],
+    mean: &[Plane],
+) -> Vec<Plane> {
+    let spp = spps(parts);
+    mean.iter()
+        .enumerate()
+        .map(|(c, m)| Plane {
+            name: m.name.clone(),
+            data: (0..m.data.len())
+                .map(|i| {
+                    pooled_var(
+                        &spp,
+                        m.data[i],
+                        |k| parts[k].planes[c].data[i],
+                        |k| variances[k][c].data[i],
+                    )
+                })
+                .collect(),
         })
         .collect()
 }
@@ -244,7 +341,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path, variance: bool) -> Result<MergeRepo
     let variances = if variance {
         let read = |p: &Part| {
             p.read_variance("render the parts with --variance")
-                .map(|v| v.pixels)
+                .map(|v| (v.pixels, v.planes))
                 .map_err(|e| Error::option("--variance", e))
         };
         Some(parts.iter().map(read).collect::<Result<Vec<_>, _>>()?)
@@ -255,11 +352,16 @@ pub fn merge(inputs: &[PathBuf], out: &Path, variance: bool) -> Result<MergeRepo
     let meta = header.attributes();
     let (width, height) = (parts[0].width, parts[0].height);
     let mean = weighted_mean(&parts);
-    write_exr(out, width, height, &mean, &meta)?;
+    let planes = weighted_mean_planes(&parts);
+    let layout = spectral_exr::layout_attributes(&planes, false);
+    write_exr_planes(out, width, height, &mean, &planes, &meta, layout)?;
     let variance = match variances {
         Some(v) => {
-            let var = pooled_variance(&parts, &v, &mean);
-            write_exr(&vp, width, height, &var, &meta)?;
+            let (rgb, other): (Vec<_>, Vec<_>) = v.into_iter().unzip();
+            let var = pooled_variance(&parts, &rgb, &mean);
+            let var_planes = pooled_variance_planes(&parts, &other, &planes);
+            let layout = spectral_exr::layout_attributes(&planes, true);
+            write_exr_planes(&vp, width, height, &var, &var_planes, &meta, layout)?;
             Some(vp)
         }
         None => None,
@@ -314,6 +416,7 @@ mod tests {
             width: px.len() as u32,
             height: 1,
             pixels: px,
+            planes: Vec::new(),
             header,
         }
     }

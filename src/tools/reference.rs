@@ -8,14 +8,17 @@
 //! leaves a variance that does not match the reference, which the next `--resume`
 //! catches, rather than a reference with a stale variance.
 
-use super::merge::{pooled_variance, weighted_mean, Part};
+use super::merge::{
+    plane_names, pooled_variance, pooled_variance_planes, weighted_mean, weighted_mean_planes, Part,
+};
 use crate::error::Error;
 use crate::header::{next_free_sample, normalise, RenderHeader, SampleRange};
 use crate::integrator::render::{
     render_progressive, PassDone, Progressive, RenderOptions, Stopped,
 };
-use crate::output::{check_outputs, variance_path, write_exr};
+use crate::output::{check_outputs, variance_path, write_exr_planes};
 use crate::scene::Scene;
+use crate::spectral_exr::layout_attributes;
 use crate::Result;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -32,7 +35,12 @@ pub struct Previous {
 /// Reads the reference at `out` and its variance image to resume them, and checks that
 /// they belong with a run whose header would be `run` at `size`. Errors are
 /// [`Error::Option`]s of `--resume` (the cause names the file) and say how to go on.
-pub fn read_previous(out: &Path, run: &RenderHeader, size: (u32, u32)) -> Result<Previous> {
+pub fn read_previous(
+    out: &Path,
+    run: &RenderHeader,
+    size: (u32, u32),
+    channels: &[String],
+) -> Result<Previous> {
     let o = out.display();
     let resume = |e: Error| Error::option("--resume", e);
     let unlike = |rest: String| Err(resume(Error::about(out, rest)));
@@ -41,6 +49,17 @@ pub fn read_previous(out: &Path, run: &RenderHeader, size: (u32, u32)) -> Result
         return unlike(format!(
             "is {}x{} but this run renders {}x{}: resume at the reference's size (--res {}x{})",
             mean.width, mean.height, size.0, size.1, mean.width, mean.height
+        ));
+    }
+    if plane_names(&mean.planes) != channels {
+        let spectral = |n: usize| match n {
+            0 => "no spectral channels".to_string(),
+            n => format!("{n} spectral channels"),
+        };
+        return unlike(format!(
+            "has {} but this run writes {}: resume with the reference's --spectral-bins and --spectral-range",
+            spectral(mean.planes.len()),
+            spectral(channels.len())
         ));
     }
     if mean.header.scene_hash != run.scene_hash {
@@ -144,7 +163,8 @@ pub fn render(job: &Job, on_pass: &mut dyn FnMut(PassDone)) -> Result<Report> {
             ));
         }
         let this = run_header(Vec::new(), 0.0, Stopped::Complete);
-        Some(read_previous(out, &this, size)?)
+        let channels = job.opts.bins.map_or(Vec::new(), |b| b.channel_names());
+        Some(read_previous(out, &this, size, &channels)?)
     } else {
         None
     };
@@ -165,14 +185,20 @@ pub fn render(job: &Job, on_pass: &mut dyn FnMut(PassDone)) -> Result<Report> {
     };
     let mut header = run_header(vec![range], done.render.seconds, done.stopped);
     header.nonfinite_samples = done.render.stats.nonfinite;
-    let (mean, var) = match previous {
-        None => (film.mean(), film.variance_of_mean()),
+    let (mean, var, planes, var_planes) = match previous {
+        None => (
+            film.mean(),
+            film.variance_of_mean(),
+            film.spectral_mean(),
+            film.spectral_variance_of_mean(),
+        ),
         Some(prev) => {
             let new = Part {
                 path: out.to_path_buf(),
                 width: size.0,
                 height: size.1,
                 pixels: film.mean(),
+                planes: film.spectral_mean(),
                 header: header.clone(),
             };
             header.ranges = normalise([prev.mean.header.ranges.clone(), vec![range]].concat());
@@ -185,13 +211,22 @@ pub fn render(job: &Job, on_pass: &mut dyn FnMut(PassDone)) -> Result<Report> {
                 &[prev.variance.pixels, film.variance_of_mean()],
                 &mean,
             );
-            (mean, var)
+            let planes = weighted_mean_planes(&parts);
+            let var_planes = pooled_variance_planes(
+                &parts,
+                &[prev.variance.planes, film.spectral_variance_of_mean()],
+                &planes,
+            );
+            (mean, var, planes, var_planes)
         }
     };
     let meta = header.attributes();
+    let (w, h) = size;
     // The variance first: see the module documentation.
-    write_exr(&var_path, size.0, size.1, &var, &meta)?;
-    write_exr(out, size.0, size.1, &mean, &meta)?;
+    let layout = layout_attributes(&planes, true);
+    write_exr_planes(&var_path, w, h, &var, &var_planes, &meta, layout)?;
+    let layout = layout_attributes(&planes, false);
+    write_exr_planes(out, w, h, &mean, &planes, &meta, layout)?;
     Ok(Report {
         header,
         added: film.spp,

@@ -8,6 +8,8 @@ use stokes::integrator::render::RenderOptions;
 use stokes::medium::tracking::Tracking;
 use stokes::method::{Axis, Dispersion, Layout, Method, Rays, Shifting, Spectral};
 use stokes::scene::Scene;
+use stokes::spectral_exr::{self, Bins};
+use stokes::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use stokes::tools::converge;
 
 #[derive(Parser)]
@@ -118,6 +120,13 @@ pub struct MethodArgs {
     /// Which pixel samples start together in a packet (packet modes; same image).
     #[arg(long, value_parser = axis::<Layout>(), default_value_t = Layout::default())]
     pub layout: Layout,
+    /// Also write N spectral channels (bin-averaged spectral radiance, OpenEXR spectral
+    /// layout: S0.<centre>nm) beside R, G, B.
+    #[arg(long, value_name = "N")]
+    pub spectral_bins: Option<u32>,
+    /// The range the spectral bins cover, LO:HI in nm (default 360:830, the renderer's).
+    #[arg(long, value_name = "LO:HI", value_parser = spectral_exr::parse_range, requires = "spectral_bins")]
+    pub spectral_range: Option<(f32, f32)>,
 }
 
 impl MethodArgs {
@@ -131,6 +140,22 @@ impl MethodArgs {
             rays,
             dispersion,
         }
+    }
+
+    /// The wavelength bins `--spectral-bins` and `--spectral-range` ask for.
+    pub fn bins(&self) -> stokes::Result<Option<Bins>> {
+        let Some(count) = self.spectral_bins else {
+            return Ok(None);
+        };
+        let (lo, hi) = self.spectral_range.unwrap_or((LAMBDA_MIN, LAMBDA_MAX));
+        let option = if self.spectral_range.is_some() && count > 0 {
+            "--spectral-range"
+        } else {
+            "--spectral-bins"
+        };
+        Bins::new(count, lo, hi).map(Some).map_err(|e| {
+            Error::option(option, stokes::error::Detail::Text(format!("expected {e}")))
+        })
     }
 
     /// The render options these flags give for `scene` (loaded from `path`), with `spp`
@@ -160,6 +185,7 @@ impl MethodArgs {
             threads: self.threads,
             method: self.method(),
             layout: self.layout,
+            bins: self.bins()?,
         };
         opts.validate()?;
         Ok(opts)
