@@ -1,5 +1,5 @@
 # The two commands the README opens with, plus a few conveniences.
-.PHONY: render test test-isas deps bench-rays fmt lint
+.PHONY: render test test-isas test-client deps bench-rays fmt lint
 
 deps:
 	./scripts/install-deps.sh
@@ -15,6 +15,10 @@ test: deps
 # The Embree-facing tests under every Embree kernel this CPU has below its best (CI runs it).
 test-isas: deps
 	./scripts/test-isas.sh
+
+# colour-science and OpenImageIO (Python, in a venv under target/) read our spectral EXRs.
+test-client: deps
+	./scripts/test-spectral-client.sh
 
 bench-rays: deps
 	cargo run --release -- bench rays scenes/sphere-100k.toml

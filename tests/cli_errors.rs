@@ -416,3 +416,70 @@ fn unwritable_outputs_of_reference_converge_and_merge() {
         assert_eq!(files_in(&dir), before, "{args:?}: left files");
     }
 }
+
+#[test]
+fn bad_spectral_bins_name_the_option() {
+    for (extra, fragments) in [
+        (
+            &["--spectral-bins", "0"][..],
+            &["--spectral-bins", "1 to 470 bins", "found 0"][..],
+        ),
+        (
+            &["--spectral-bins", "8", "--spectral-range", "300:830"],
+            &["--spectral-range", "inside 360:830", "found 300:830"],
+        ),
+        (
+            &["--spectral-bins", "8", "--spectral-range", "400-700"],
+            &["--spectral-range", "LO:HI"],
+        ),
+        (&["--spectral-range", "400:700"], &["--spectral-bins"]),
+    ] {
+        let (ok, err, out) = render_text("spectral-bins", GOOD, extra);
+        assert!(!ok && !out, "{extra:?} rendered");
+        assert!(!err.contains("panicked"), "{err}");
+        for f in fragments {
+            assert!(err.contains(f), "{extra:?}: message lacks {f:?}: {err}");
+        }
+    }
+    // And a good one writes the layout's channels beside R, G, B.
+    let dir = scratch("spectral-bins-good");
+    let scene = dir.join("good.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let out = dir.join("out.exr");
+    let (ok, _, err) = run(stokes().args([
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&out),
+        "--spp",
+        "2",
+        "--spectral-bins",
+        "4",
+        "--spectral-range",
+        "400:800",
+        "--variance",
+    ]));
+    assert!(ok, "{err}");
+    for path in [out.clone(), stokes::output::variance_path(&out)] {
+        let names: Vec<String> = stokes::output::Channels::read(&path)
+            .unwrap()
+            .planes
+            .into_iter()
+            .map(|p| p.name)
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "B",
+                "G",
+                "R",
+                "S0.450,000000nm",
+                "S0.550,000000nm",
+                "S0.650,000000nm",
+                "S0.750,000000nm"
+            ],
+            "{}",
+            path.display()
+        );
+    }
+}

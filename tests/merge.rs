@@ -117,3 +117,68 @@ fn parts_with_another_method_or_the_same_samples_are_refused_and_nothing_is_writ
     assert!(e.contains("both hold samples 0..2 of seed 0"), "{e}");
     assert!(!out.exists(), "a refused merge wrote {}", out.display());
 }
+
+/// The largest relative difference between two sets of planes (same names required).
+fn max_plane_difference(x: &[stokes::output::Plane], y: &[stokes::output::Plane]) -> f64 {
+    assert_eq!(merge::plane_names(x), merge::plane_names(y));
+    x.iter()
+        .zip(y)
+        .flat_map(|(a, b)| a.data.iter().zip(&b.data))
+        .map(|(&u, &v)| ((u - v).abs() / v.abs().max(1e-6)) as f64)
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn spectral_parts_merge_every_bin_and_refuse_other_bins() {
+    let dir = scratch("merge-spectral");
+    let mut scene = scene_file("cornell-box.toml");
+    scene.set_resolution(8, 8);
+    let opts = RenderOptions {
+        seed: 2,
+        threads: 1,
+        max_depth: 5,
+        bins: Some(stokes::spectral_exr::Bins::new(12, 400.0, 700.0).unwrap()),
+        ..Default::default()
+    };
+    let a = part(&scene, &opts, 0, 5, &dir.join("a.exr"));
+    let b = part(&scene, &opts, 5, 7, &dir.join("b.exr"));
+    let full = part(&scene, &opts, 0, 12, &dir.join("full.exr"));
+    let out = dir.join("merged.exr");
+    merge::merge(&[a.clone(), b], &out, true).unwrap();
+    let (m, f) = (
+        merge::Part::read(&out).unwrap(),
+        merge::Part::read(&full).unwrap(),
+    );
+    assert_eq!(m.planes.len(), 12);
+    let d = max_plane_difference(&m.planes, &f.planes);
+    assert!(
+        d < 1e-5,
+        "merged and single spectral render differ by {d:.2e}"
+    );
+    let (mv, fv) = (m.read_variance("").unwrap(), f.read_variance("").unwrap());
+    let dv = max_plane_difference(&mv.planes, &fv.planes);
+    assert!(dv < 1e-3, "spectral variances differ by {dv:.2e}");
+    assert!(max_plane_difference(&merge::Part::read(&a).unwrap().planes, &f.planes) > 1e-3);
+    // The merged file is still in the spectral layout.
+    let text = stokes::output::Channels::read(&out).unwrap().text;
+    assert!(text.contains(&("spectralLayoutVersion".into(), "1.0".into())));
+    assert!(text.contains(&("emissiveUnits".into(), "W.m^-2.sr^-1".into())));
+
+    // Another binning, or none, does not pool with these bins.
+    let mut other = opts.clone();
+    other.bins = Some(stokes::spectral_exr::Bins::new(6, 400.0, 700.0).unwrap());
+    let c = part(&scene, &other, 20, 2, &dir.join("c.exr"));
+    other.bins = None;
+    let rgb = part(&scene, &other, 30, 2, &dir.join("rgb.exr"));
+    for (p, what) in [(c, "6 channels"), (rgb, "no channels beside R, G, B")] {
+        let out = dir.join("refused.exr");
+        let e = merge::merge(&[a.clone(), p], &out, false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(what) && e.contains("12 channels") && e.contains("--spectral-bins"),
+            "{e}"
+        );
+        assert!(!out.exists());
+    }
+}

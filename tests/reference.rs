@@ -191,3 +191,49 @@ fn new_samples_start_after_the_held_ones_of_their_seed() {
     let gapped = parse_ranges("3:0..4 3:16..20").unwrap();
     assert_eq!(next_free_sample(&gapped, 3), 20);
 }
+
+#[test]
+fn a_spectral_reference_resumes_every_bin_and_only_with_the_same_bins() {
+    use stokes::spectral_exr::Bins;
+    use stokes::tools::merge::Part;
+    let dir = scratch("reference-spectral");
+    let mut t = settings();
+    t.opts.bins = Some(Bins::new(10, 400.0, 700.0).unwrap());
+    let scene = cornell(&t);
+    let (parts, whole) = (dir.join("parts.exr"), dir.join("whole.exr"));
+    run(&scene, &t, &parts, 3, false).unwrap();
+    let first = Part::read(&parts).unwrap().planes;
+    run(&scene, &t, &parts, 5, true).unwrap();
+    run(&scene, &t, &whole, 8, false).unwrap();
+    let (a, b) = (Part::read(&parts).unwrap(), Part::read(&whole).unwrap());
+    let diff = |x: &[stokes::output::Plane], y: &[stokes::output::Plane]| {
+        x.iter()
+            .zip(y)
+            .flat_map(|(p, q)| p.data.iter().zip(&q.data))
+            .map(|(&u, &v)| ((u - v).abs() / v.abs().max(1e-6)) as f64)
+            .fold(0.0, f64::max)
+    };
+    assert_eq!(a.planes.len(), 10);
+    assert!(diff(&a.planes, &b.planes) < 1e-5);
+    let (va, vb) = (a.read_variance("").unwrap(), b.read_variance("").unwrap());
+    assert!(diff(&va.planes, &vb.planes) < 1e-4);
+    assert!(
+        diff(&first, &b.planes) > 1e-3,
+        "the control: 3 spp is not 8"
+    );
+
+    // Other bins, or none, do not resume it; nothing is written.
+    let before = files(&dir);
+    for bins in [Some(Bins::new(5, 400.0, 700.0).unwrap()), None] {
+        let mut other = t.clone();
+        other.opts.bins = bins;
+        let e = run(&scene, &other, &parts, 2, true)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("has 10 spectral channels") && e.contains("--spectral-bins"),
+            "{e}"
+        );
+    }
+    assert_eq!(files(&dir), before);
+}
