@@ -118,16 +118,6 @@ fn parts_with_another_method_or_the_same_samples_are_refused_and_nothing_is_writ
     assert!(!out.exists(), "a refused merge wrote {}", out.display());
 }
 
-/// The largest relative difference between two sets of planes (same names required).
-fn max_plane_difference(x: &[stokes::output::Plane], y: &[stokes::output::Plane]) -> f64 {
-    assert_eq!(merge::plane_names(x), merge::plane_names(y));
-    x.iter()
-        .zip(y)
-        .flat_map(|(a, b)| a.data.iter().zip(&b.data))
-        .map(|(&u, &v)| ((u - v).abs() / v.abs().max(1e-6)) as f64)
-        .fold(0.0, f64::max)
-}
-
 #[test]
 fn spectral_parts_merge_every_bin_and_refuse_other_bins() {
     let dir = scratch("merge-spectral");

@@ -157,6 +157,17 @@ pub fn region_mean(film: &Film, pixels: &[usize]) -> ([f64; 3], [f64; 3]) {
     (m, v.map(f64::sqrt))
 }
 
+/// The largest relative difference between two images' extra channels (same names).
+pub fn max_plane_difference(x: &[stokes::output::Plane], y: &[stokes::output::Plane]) -> f64 {
+    let names = |p: &[stokes::output::Plane]| p.iter().map(|q| q.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(x), names(y));
+    x.iter()
+        .zip(y)
+        .flat_map(|(a, b)| a.data.iter().zip(&b.data))
+        .map(|(&u, &v)| ((u - v).abs() / v.abs().max(1e-6)) as f64)
+        .fold(0.0, f64::max)
+}
+
 /// Every pixel index of a film.
 pub fn all_pixels(film: &Film) -> Vec<usize> {
     (0..(film.width * film.height) as usize).collect()
