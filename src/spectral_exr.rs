@@ -205,6 +205,25 @@ impl Bins {
         Some(b.min(self.count as usize - 1))
     }
 
+    /// The bins whose [`Bins::channel_names`] are `names`, if there are such bins.
+    pub fn from_channel_names(names: &[&str]) -> Option<Bins> {
+        let centres: Vec<f64> = names
+            .iter()
+            .map(|n| match parse_channel(n)? {
+                SpectralChannel::Emissive { stokes: 0, nm } => Some(nm),
+                _ => None,
+            })
+            .collect::<Option<_>>()?;
+        let (first, last) = (*centres.first()?, *centres.last()?);
+        let width = match centres.len() {
+            1 => return None,
+            n => (last - first) / (n - 1) as f64,
+        };
+        let (lo, hi) = (first - width / 2.0, last + width / 2.0);
+        let bins = Bins::new(centres.len() as u32, lo as f32, hi as f32).ok()?;
+        (bins.channel_names() == names).then_some(bins)
+    }
+
     /// The emissive channel names, bin by bin.
     pub fn channel_names(&self) -> Vec<String> {
         (0..self.count)
@@ -292,6 +311,25 @@ mod tests {
         assert_eq!(b.index(830.0), None);
         assert_eq!(b.index(359.0), None);
         assert_eq!(b.channel_names()[19], "S0.555,000000nm");
+        let names = b.channel_names();
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        assert_eq!(Bins::from_channel_names(&names), Some(b));
+        let odd = Bins::new(7, 401.5, 688.0).unwrap().channel_names();
+        let odd: Vec<&str> = odd.iter().map(String::as_str).collect();
+        assert_eq!(Bins::from_channel_names(&odd).map(|b| b.count), Some(7));
+        assert_eq!(Bins::from_channel_names(&names[..1]), None);
+        assert_eq!(
+            Bins::from_channel_names(&[names[1], names[3]]),
+            Some(Bins::new(2, 365.0, 405.0).unwrap())
+        );
+        assert_eq!(
+            Bins::from_channel_names(&[names[0], names[1], names[3]]),
+            None
+        );
+        assert_eq!(
+            Bins::from_channel_names(&["T.365,000000nm", "T.375,000000nm"]),
+            None
+        );
         assert!(Bins::new(10, 300.0, 830.0).is_err());
         assert!(Bins::new(10, 400.0, 900.0).is_err());
         assert!(Bins::new(0, 400.0, 700.0).is_err());

@@ -100,7 +100,7 @@ fn read_csv(path: &Path) -> Vec<Row> {
     lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            assert_eq!(f.len(), 12, "{l}");
+            assert_eq!(f.len(), 14, "{l}");
             Row {
                 method: f[0].into(),
                 axes: std::array::from_fn(|k| f[1 + k].to_string()),
@@ -863,4 +863,79 @@ fn a_comparison_that_does_not_fit_is_refused_before_rendering() {
         e.to_string().contains("is 8x8 but this run renders 4x4"),
         "{e}"
     );
+}
+
+#[test]
+fn a_spectral_reference_adds_errors_in_spectral_radiance() {
+    use stokes::spectral_exr::Bins;
+    use stokes::tools::converge::{self, Budget, Job};
+    let dir = scratch("converge-spectral");
+    let mut t = TestRender::at(8, 8).seed(3).threads(1).max_depth(3);
+    t.opts.bins = Some(Bins::new(8, 400.0, 720.0).unwrap());
+    let mut scene = scene_from(FURNACE);
+    scene.set_resolution(8, 8);
+    let reference_path = dir.join("ref.exr");
+    let job = stokes::tools::reference::Job {
+        scene: &scene,
+        opts: &t.opts,
+        spp: 64,
+        out: &reference_path,
+        resume: false,
+        stop: None,
+    };
+    stokes::tools::reference::render(&job, &mut |_| {}).unwrap();
+    let reference = stokes::tools::merge::Part::read(&reference_path).unwrap();
+    assert_eq!(converge::reference_bins(&reference).unwrap(), t.opts.bins);
+    let mut base = t.opts.clone();
+    base.bins = None; // the runs take the reference's bins, whatever the base says
+    let job = Job {
+        scene: &scene,
+        base: &base,
+        methods: vec![base.method.resolve(&scene)],
+        reference: &reference,
+        budget: Budget {
+            seconds: 600.0,
+            max_spp: Some(16),
+            first_sample: converge::first_sample_after(&reference, base.seed).unwrap(),
+        },
+        out_dir: dir.join("out"),
+    };
+    let report = job.run(&mut |_, _| {}).unwrap();
+    let cps = &report.runs[0].checkpoints;
+    let spectral = |k: usize| cps[k].errors[0].spectral.expect("spectral errors");
+    // 16 spp against 1: the RMSE over 512 bin values falls by about √((1 + 1/64) /
+    // (1/16 + 1/64)) ≈ 3.6.
+    assert!(spectral(cps.len() - 1).0 < spectral(0).0 / 2.0, "{:?}", cps);
+    assert!(spectral(0).0 > 0.0 && spectral(0).1 > 0.0);
+    let csv = std::fs::read_to_string(job.out_dir.join("convergence.csv")).unwrap();
+    let row = csv.lines().nth(1).unwrap();
+    let cols: Vec<&str> = row.split(',').collect();
+    assert_eq!(cols.len(), 14, "{row}");
+    assert!(cols[12].parse::<f64>().unwrap() > 0.0, "{row}");
+    assert!(report
+        .summary
+        .contains("the reference is spectral (8 bins over 400:720 nm)"));
+
+    // Against an RGB reference the columns stay empty.
+    let (scene, opts, rgb_path) = furnace_with_reference(&dir.join("rgb"));
+    let rgb = stokes::tools::merge::Part::read(&rgb_path).unwrap();
+    let job = Job {
+        reference: &rgb,
+        base: &opts,
+        scene: &scene,
+        methods: vec![opts.method.resolve(&scene)],
+        out_dir: dir.join("rgb-out"),
+        budget: Budget {
+            seconds: 600.0,
+            max_spp: Some(2),
+            first_sample: 64,
+        },
+    };
+    let report = job.run(&mut |_, _| {}).unwrap();
+    assert!(report.runs[0]
+        .checkpoints
+        .iter()
+        .all(|c| c.errors[0].spectral.is_none()));
+    let csv = std::fs::read_to_string(job.out_dir.join("convergence.csv")).unwrap();
+    assert!(csv.lines().nth(1).unwrap().ends_with(",,"));
 }

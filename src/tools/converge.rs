@@ -10,20 +10,24 @@
 //!
 //! **Errors.** At a checkpoint, with `x` the image and `r` the reference over the pixels
 //! `P` of a region and the three channels: `rmse = √(mean (x − r)²)` and
-//! `relmse = mean (x − r)² / (r² + 0.01)`.
+//! `relmse = mean (x − r)² / (r² + 0.01)`. When the reference is spectral (rendered with
+//! `--spectral-bins`), every method renders the same bins and the same two measures are
+//! also taken over the pixels and the bins, in spectral radiance (`spectral_rmse`,
+//! `spectral_relmse`); the charts and the summary stay in RGB.
 //!
 //! **CSV** (`convergence.csv`): one row per checkpoint and region, with the columns
 //! [`CSV_HEADER`]; region `image` is the whole image.
 
 use super::chart::{self, LogLogChart, Series};
-use super::merge::Part;
+use super::merge::{plane_names, Part};
 use crate::error::Error;
 use crate::header::next_free_sample;
 use crate::integrator::render::{render_pass, Film, RenderOptions};
 use crate::medium::tracking::Tracking;
 use crate::method::{Dispersion, Method, Rays, Resolved, Shifting, Spectral};
-use crate::output::{check_outputs, read_exr, variance_path, write_atomically};
+use crate::output::{check_outputs, read_exr, variance_path, write_atomically, Plane};
 use crate::scene::Scene;
+use crate::spectral_exr::Bins;
 use crate::Result;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -55,11 +59,14 @@ the seconds of rendering so far (error computation not counted) and the error ag
 the reference over the image and over each [[region]] of the scene:
   rmse   = sqrt(mean over pixels and channels of (x - r)^2)
   relmse = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01)
+A spectral reference (rendered with --spectral-bins) makes every method render its bins
+too, and the same two are measured over pixels and bins in spectral radiance.
 
 Outputs in --out DIR:
   convergence.csv   method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,
-                    region,rmse,relmse (one row per checkpoint and region; region `image`
-                    is the whole image)
+                    region,rmse,relmse,spectral_rmse,spectral_relmse (one row per
+                    checkpoint and region; region `image` is the whole image; the
+                    spectral columns are empty against an RGB reference)
   error-vs-time.svg/.png, error-vs-spp.svg/.png: log-log RMSE over the first region
                     (else the image), one line per method, a dashed line of slope -1/2
 and on stdout a table: per method, the fitted log-log slope of RMSE against spp (over
@@ -77,7 +84,7 @@ pub const FILES: [&str; 5] = [
 
 /// The columns of `convergence.csv`.
 pub const CSV_HEADER: &str =
-    "method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,region,rmse,relmse";
+    "method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,region,rmse,relmse,spectral_rmse,spectral_relmse";
 
 /// `base` rendering `method`.
 pub fn options_for(method: &Resolved, base: &RenderOptions) -> RenderOptions {
@@ -205,25 +212,68 @@ pub struct Errors {
     pub rmse: f64,
     /// Mean of (x − r)² / (r² + 0.01) over pixels and channels.
     pub relmse: f64,
+    /// The same two over pixels and wavelength bins, if the reference is spectral.
+    pub spectral: Option<(f64, f64)>,
 }
 
 /// The errors of `image` against `reference` over the pixels `pixels` (indices into
 /// both) and the three channels. An empty set gives NaN.
 pub fn errors(image: &[[f32; 3]], reference: &[[f32; 3]], pixels: &[usize]) -> Errors {
-    let (mut se, mut rel) = (0.0f64, 0.0f64);
-    for &i in pixels {
-        for c in 0..3 {
-            let r = reference[i][c] as f64;
-            let d = image[i][c] as f64 - r;
-            se += d * d;
-            rel += d * d / (r * r + 0.01);
-        }
-    }
-    let n = (3 * pixels.len()) as f64;
+    let (rmse, relmse) = squared_errors(
+        pixels
+            .iter()
+            .flat_map(|&i| (0..3).map(move |c| (image[i][c], reference[i][c]))),
+    );
     Errors {
-        rmse: (se / n).sqrt(),
-        relmse: rel / n,
+        rmse,
+        relmse,
+        spectral: None,
     }
+}
+
+/// The RMSE and relMSE of the bins `image` against the reference's `reference` over
+/// `pixels` (planes in the same order).
+pub fn spectral_errors(image: &[Plane], reference: &[Plane], pixels: &[usize]) -> (f64, f64) {
+    squared_errors(
+        image
+            .iter()
+            .zip(reference)
+            .flat_map(|(x, r)| pixels.iter().map(move |&i| (x.data[i], r.data[i]))),
+    )
+}
+
+/// √(mean (x − r)²) and mean (x − r)² / (r² + 0.01) over `(x, r)` pairs.
+fn squared_errors(pairs: impl Iterator<Item = (f32, f32)>) -> (f64, f64) {
+    let (mut se, mut rel, mut n) = (0.0f64, 0.0f64, 0usize);
+    for (x, r) in pairs {
+        let (x, r) = (x as f64, r as f64);
+        let d = x - r;
+        se += d * d;
+        rel += d * d / (r * r + 0.01);
+        n += 1;
+    }
+    ((se / n as f64).sqrt(), rel / n as f64)
+}
+
+/// The bins of a spectral reference's channels: every one must be an emissive channel
+/// of ours, evenly spaced; `None` for an RGB reference, an error for channels the runs
+/// could not reproduce.
+pub fn reference_bins(reference: &Part) -> Result<Option<Bins>> {
+    if reference.planes.is_empty() {
+        return Ok(None);
+    }
+    let names: Vec<&str> = plane_names(&reference.planes);
+    Bins::from_channel_names(&names).map(Some).ok_or_else(|| {
+        Error::about_option(
+            "--reference",
+            &reference.path,
+            format!(
+                "has channels {} … {} beside R, G, B that are not the evenly spaced S0 bins stokes writes: give an RGB reference or one rendered with --spectral-bins",
+                names[0],
+                names[names.len() - 1]
+            ),
+        )
+    })
 }
 
 /// A region of the image to measure: `image` (every pixel) or a scene's `[[region]]`.
@@ -297,18 +347,19 @@ pub fn run_method(
     scene: &Scene,
     base: &RenderOptions,
     method: &Resolved,
-    reference: &[[f32; 3]],
+    reference: &Part,
     regions: &[MeasuredRegion],
     budget: &Budget,
     pool: &rayon::ThreadPool,
 ) -> Result<Run> {
-    let opts = options_for(method, base);
+    let mut opts = options_for(method, base);
+    opts.bins = reference_bins(reference)?;
     opts.validate()?;
     let (width, height) = (scene.camera.width, scene.camera.height);
-    if reference.len() as u64 != scene.camera.pixel_count() {
+    if reference.pixels.len() as u64 != scene.camera.pixel_count() {
         return Err(Error::Other(format!(
             "the reference has {} pixels but the render {width}x{height} has {}",
-            reference.len(),
+            reference.pixels.len(),
             scene.camera.pixel_count()
         )));
     }
@@ -319,21 +370,24 @@ pub fn run_method(
         )));
     }
     let max_spp = crate::integrator::render::sample_count(budget.first_sample, budget.max_spp)?;
-    let mut film = Film::try_new(width, height)?;
+    let mut film = Film::try_with_bins(width, height, opts.bins)?;
     let mut seconds = 0.0f64;
     let mut pass = 0u32;
     let mut nonfinite = 0u64;
     let mut checkpoints: Vec<Checkpoint> = Vec::new();
     let measure = |film: &Film, pass: u32, seconds: f64| {
         let image = film.mean();
+        let bins = film.spectral_mean();
+        let error = |r: &MeasuredRegion| Errors {
+            spectral: (!bins.is_empty())
+                .then(|| spectral_errors(&bins, &reference.planes, &r.pixels)),
+            ..errors(&image, &reference.pixels, &r.pixels)
+        };
         Checkpoint {
             pass,
             spp: film.spp,
             seconds,
-            errors: regions
-                .iter()
-                .map(|r| errors(&image, reference, &r.pixels))
-                .collect(),
+            errors: regions.iter().map(error).collect(),
         }
     };
     while film.spp < max_spp && (pass == 0 || seconds + seconds / pass as f64 <= budget.seconds) {
@@ -434,7 +488,7 @@ impl Job<'_> {
             scene,
             self.base,
             &self.methods,
-            &self.reference.pixels,
+            self.reference,
             &regions,
             &self.budget,
             on_run,
@@ -482,6 +536,17 @@ impl Job<'_> {
                 );
             }
         }
+        if let Some(bins) = r
+            .planes
+            .first()
+            .and_then(|_| reference_bins(r).ok().flatten())
+        {
+            let _ = writeln!(
+                out,
+                "the reference is spectral ({bins}): errors in spectral radiance are in {} (spectral_rmse, spectral_relmse)",
+                FILES[0]
+            );
+        }
         out.push('\n');
         let (target, worst, rows) = summarize(runs, region);
         out.push_str(&format_summary(name, target, &worst, &rows));
@@ -496,7 +561,7 @@ pub fn compare(
     scene: &Scene,
     base: &RenderOptions,
     methods: &[Resolved],
-    reference: &[[f32; 3]],
+    reference: &Part,
     regions: &[MeasuredRegion],
     budget: &Budget,
     on_run: &mut dyn FnMut(usize, &Run),
@@ -651,9 +716,13 @@ pub fn csv(runs: &[Run], regions: &[MeasuredRegion]) -> String {
         let [spectral, shifting, tracking, rays, dispersion] = m.parts();
         for c in &run.checkpoints {
             for (r, e) in regions.iter().zip(&c.errors) {
+                let (s_rmse, s_relmse) = e
+                    .spectral
+                    .map(|(a, b)| (format!("{a:.6e}"), format!("{b:.6e}")))
+                    .unwrap_or_default();
                 let _ = writeln!(
                     out,
-                    "{m},{spectral},{shifting},{tracking},{rays},{dispersion},{},{},{:.6},{},{:.6e},{:.6e}",
+                    "{m},{spectral},{shifting},{tracking},{rays},{dispersion},{},{},{:.6},{},{:.6e},{:.6e},{s_rmse},{s_relmse}",
                     c.pass,
                     c.spp,
                     c.seconds,
@@ -749,6 +818,7 @@ pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) 
                 Errors {
                     rmse: f64::NAN,
                     relmse: f64::NAN,
+                    spectral: None,
                 },
                 |c| c.errors[region],
             )
