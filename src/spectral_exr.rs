@@ -83,24 +83,25 @@ pub fn parse_channel(name: &str) -> Option<SpectralChannel> {
     }
 }
 
-/// SI prefixes the layout allows, longest first (`da` before `d`), with their factors.
-const PREFIXES: [(&str, f64); 16] = [
-    ("da", 1e1),
-    ("Y", 1e24),
-    ("Z", 1e21),
-    ("E", 1e18),
-    ("P", 1e15),
-    ("T", 1e12),
-    ("G", 1e9),
-    ("M", 1e6),
-    ("k", 1e3),
-    ("h", 1e2),
-    ("d", 1e-1),
-    ("c", 1e-2),
-    ("m", 1e-3),
-    ("u", 1e-6),
-    ("n", 1e-9),
-    ("p", 1e-12),
+/// SI prefixes the layout allows, longest first (`da` before `d`), as powers of ten
+/// (exponents, so that `550nm` is exactly 550 rather than 550·10⁻⁹·10⁹).
+const PREFIXES: [(&str, i32); 16] = [
+    ("da", 1),
+    ("Y", 24),
+    ("Z", 21),
+    ("E", 18),
+    ("P", 15),
+    ("T", 12),
+    ("G", 9),
+    ("M", 6),
+    ("k", 3),
+    ("h", 2),
+    ("d", -1),
+    ("c", -2),
+    ("m", -3),
+    ("u", -6),
+    ("n", -9),
+    ("p", -12),
 ];
 
 /// Speed of light in m/s, to read wavelengths given as frequencies.
@@ -117,14 +118,19 @@ pub fn parse_quantity(text: &str) -> Option<f64> {
     // The number ends where the prefix starts: at the last digit.
     let end = body.rfind(|c: char| c.is_ascii_digit())? + 1;
     let (number, prefix) = body.split_at(end);
-    let factor = if prefix.is_empty() {
-        1.0
+    let exponent = if prefix.is_empty() {
+        0
     } else {
         PREFIXES.iter().find(|(p, _)| *p == prefix)?.1
     };
-    let value = parse_number(number)? * factor;
-    let metres = if hertz { LIGHT_SPEED / value } else { value };
-    let nm = metres * 1e9;
+    let number = parse_number(number)?;
+    let nm = if hertz {
+        LIGHT_SPEED / (number * 10f64.powi(exponent)) * 1e9
+    } else if exponent >= -9 {
+        number * 10f64.powi(exponent + 9)
+    } else {
+        number / 10f64.powi(-9 - exponent)
+    };
     (nm.is_finite() && nm > 0.0).then_some(nm)
 }
 
@@ -270,6 +276,9 @@ mod tests {
         close("5,5e-7m", 550.0);
         close("545,0771Hz", LIGHT_SPEED / 545.0771 * 1e9);
         close("545,0771THz", LIGHT_SPEED / 545.0771e12 * 1e9);
+        // Nanometres exactly as written (the writer's numbers are the grid).
+        assert_eq!(parse_quantity("400,000000nm"), Some(400.0));
+        assert_eq!(parse_quantity("361,500000nm"), Some(361.5));
         for bad in [
             "550", "550.0nm", "nm", "5,5,0nm", "550xm", "R", "-550nm", "5e+nm",
         ] {
