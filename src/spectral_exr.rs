@@ -9,9 +9,12 @@
 //! prefix and the unit `m` or `Hz`. Writers differ in how many decimals they print, so
 //! channels are recognised by parsing, never by comparing strings.
 
-use crate::output::Plane;
+use crate::error::{Detail, Error};
+use crate::output::{Channels, Plane};
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
+use crate::Result;
 use std::fmt;
+use std::path::Path;
 
 /// The header attribute every spectral EXR carries, and its value.
 pub const LAYOUT_VERSION: (&str, &str) = ("spectralLayoutVersion", "1.0");
@@ -237,6 +240,45 @@ pub fn parse_range(text: &str) -> Result<(f32, f32), String> {
     let lo: f32 = a.trim().parse().map_err(|_| bad())?;
     let hi: f32 = b.trim().parse().map_err(|_| bad())?;
     Ok((lo, hi))
+}
+
+/// The spectral channels of an EXR, each averaged over all its pixels: a material is
+/// uniform (spectral and bispectral textures do not exist yet), so an image of it is
+/// reduced to one value per channel.
+#[derive(Debug, Clone)]
+pub struct Averaged {
+    /// How many pixels each mean is over.
+    pub pixels: usize,
+    /// The channels of the layout, in the file's order: name, meaning, mean.
+    pub channels: Vec<(String, SpectralChannel, f32)>,
+}
+
+/// Reads the first layer of the EXR `path` and averages every channel of the spectral
+/// layout over its pixels (in f64). Other channels (R, G, B, A) are ignored. A mean that
+/// is not finite is an error naming the file and the channel.
+pub fn read_averaged(path: &Path) -> Result<Averaged> {
+    let image = Channels::read(path)?;
+    let pixels = image.width as usize * image.height as usize;
+    let mut channels = Vec::new();
+    for plane in &image.planes {
+        let Some(c) = parse_channel(&plane.name) else {
+            continue;
+        };
+        let sum: f64 = plane.data.iter().map(|&v| f64::from(v)).sum();
+        let mean = (sum / plane.data.len().max(1) as f64) as f32;
+        if !mean.is_finite() {
+            return Err(Error::file(
+                path,
+                None,
+                Detail::expected(
+                    format!("finite values in channel {}", plane.name),
+                    format!("a mean of {mean} over {pixels} pixel(s)"),
+                ),
+            ));
+        }
+        channels.push((plane.name.clone(), c, mean));
+    }
+    Ok(Averaged { pixels, channels })
 }
 
 #[cfg(test)]
