@@ -11,7 +11,7 @@
 
 use crate::error::{Detail, Error};
 use crate::output::{Channels, Plane};
-use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
+use crate::spectrum::{Tabulated, LAMBDA_MAX, LAMBDA_MIN};
 use crate::Result;
 use std::fmt;
 use std::path::Path;
@@ -279,6 +279,61 @@ pub fn read_averaged(path: &Path) -> Result<Averaged> {
         channels.push((plane.name.clone(), c, mean));
     }
     Ok(Averaged { pixels, channels })
+}
+
+/// A spectrum from a spectral EXR, for a scene's `{ exr = "file.exr" }`: the reflective
+/// channels `T.<λ>nm` if there are any, else the unpolarised emissive ones `S0.<λ>nm`,
+/// each averaged over the pixels, as a table through their wavelengths (linear between,
+/// zero outside, like `{ wavelengths, values }`). The value is taken as written: a
+/// reflectance, or a radiance in the file's units (`scale` converts). Bispectral
+/// channels and S1–S3 are ignored. Errors name the file and the channel.
+pub fn spectrum(path: &Path) -> Result<Tabulated> {
+    let avg = read_averaged(path)?;
+    let reflective: Vec<(&str, f64, f32)> = avg
+        .channels
+        .iter()
+        .filter_map(|(name, c, v)| match c {
+            SpectralChannel::Reflective { nm } => Some((name.as_str(), *nm, *v)),
+            _ => None,
+        })
+        .collect();
+    let samples = if reflective.is_empty() {
+        avg.channels
+            .iter()
+            .filter_map(|(name, c, v)| match c {
+                SpectralChannel::Emissive { stokes: 0, nm } => Some((name.as_str(), *nm, *v)),
+                _ => None,
+            })
+            .collect()
+    } else {
+        reflective
+    };
+    if samples.is_empty() {
+        return Err(Error::file(
+            path,
+            None,
+            Detail::expected(
+                "spectral channels T.<λ>nm (reflective) or S0.<λ>nm (emissive), e.g. T.550,000000nm",
+                "none",
+            ),
+        ));
+    }
+    let mut samples = samples;
+    samples.sort_by(|a, b| a.1.total_cmp(&b.1));
+    for pair in samples.windows(2) {
+        if pair[0].1 as f32 == pair[1].1 as f32 {
+            return Err(Error::file(
+                path,
+                None,
+                format!(
+                    "channels {} and {} are the same wavelength ({} nm)",
+                    pair[0].0, pair[1].0, pair[1].1
+                ),
+            ));
+        }
+    }
+    let (w, v) = samples.iter().map(|s| (s.1 as f32, s.2)).unzip();
+    Tabulated::new(w, v).map_err(|e| Error::file(path, None, e))
 }
 
 #[cfg(test)]
