@@ -9,9 +9,12 @@
 //! prefix and the unit `m` or `Hz`. Writers differ in how many decimals they print, so
 //! channels are recognised by parsing, never by comparing strings.
 
-use crate::output::Plane;
-use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
+use crate::error::{Detail, Error};
+use crate::output::{Channels, Plane};
+use crate::spectrum::{Tabulated, LAMBDA_MAX, LAMBDA_MIN};
+use crate::Result;
 use std::fmt;
+use std::path::Path;
 
 /// The header attribute every spectral EXR carries, and its value.
 pub const LAYOUT_VERSION: (&str, &str) = ("spectralLayoutVersion", "1.0");
@@ -83,24 +86,25 @@ pub fn parse_channel(name: &str) -> Option<SpectralChannel> {
     }
 }
 
-/// SI prefixes the layout allows, longest first (`da` before `d`), with their factors.
-const PREFIXES: [(&str, f64); 16] = [
-    ("da", 1e1),
-    ("Y", 1e24),
-    ("Z", 1e21),
-    ("E", 1e18),
-    ("P", 1e15),
-    ("T", 1e12),
-    ("G", 1e9),
-    ("M", 1e6),
-    ("k", 1e3),
-    ("h", 1e2),
-    ("d", 1e-1),
-    ("c", 1e-2),
-    ("m", 1e-3),
-    ("u", 1e-6),
-    ("n", 1e-9),
-    ("p", 1e-12),
+/// SI prefixes the layout allows, longest first (`da` before `d`), as powers of ten
+/// (exponents, so that `550nm` is exactly 550 rather than 550·10⁻⁹·10⁹).
+const PREFIXES: [(&str, i32); 16] = [
+    ("da", 1),
+    ("Y", 24),
+    ("Z", 21),
+    ("E", 18),
+    ("P", 15),
+    ("T", 12),
+    ("G", 9),
+    ("M", 6),
+    ("k", 3),
+    ("h", 2),
+    ("d", -1),
+    ("c", -2),
+    ("m", -3),
+    ("u", -6),
+    ("n", -9),
+    ("p", -12),
 ];
 
 /// Speed of light in m/s, to read wavelengths given as frequencies.
@@ -117,14 +121,19 @@ pub fn parse_quantity(text: &str) -> Option<f64> {
     // The number ends where the prefix starts: at the last digit.
     let end = body.rfind(|c: char| c.is_ascii_digit())? + 1;
     let (number, prefix) = body.split_at(end);
-    let factor = if prefix.is_empty() {
-        1.0
+    let exponent = if prefix.is_empty() {
+        0
     } else {
         PREFIXES.iter().find(|(p, _)| *p == prefix)?.1
     };
-    let value = parse_number(number)? * factor;
-    let metres = if hertz { LIGHT_SPEED / value } else { value };
-    let nm = metres * 1e9;
+    let number = parse_number(number)?;
+    let nm = if hertz {
+        LIGHT_SPEED / (number * 10f64.powi(exponent)) * 1e9
+    } else if exponent >= -9 {
+        number * 10f64.powi(exponent + 9)
+    } else {
+        number / 10f64.powi(-9 - exponent)
+    };
     (nm.is_finite() && nm > 0.0).then_some(nm)
 }
 
@@ -252,6 +261,100 @@ pub fn parse_range(text: &str) -> Result<(f32, f32), String> {
     Ok((lo, hi))
 }
 
+/// The spectral channels of an EXR, each averaged over all its pixels: a material is
+/// uniform (spectral and bispectral textures do not exist yet), so an image of it is
+/// reduced to one value per channel.
+#[derive(Debug, Clone)]
+pub struct Averaged {
+    /// How many pixels each mean is over.
+    pub pixels: usize,
+    /// The channels of the layout, in the file's order: name, meaning, mean.
+    pub channels: Vec<(String, SpectralChannel, f32)>,
+}
+
+/// Reads the first layer of the EXR `path` and averages every channel of the spectral
+/// layout over its pixels (in f64). Other channels (R, G, B, A) are ignored. A mean that
+/// is not finite is an error naming the file and the channel.
+pub fn read_averaged(path: &Path) -> Result<Averaged> {
+    let image = Channels::read(path)?;
+    let pixels = image.width as usize * image.height as usize;
+    let mut channels = Vec::new();
+    for plane in &image.planes {
+        let Some(c) = parse_channel(&plane.name) else {
+            continue;
+        };
+        let sum: f64 = plane.data.iter().map(|&v| f64::from(v)).sum();
+        let mean = (sum / plane.data.len().max(1) as f64) as f32;
+        if !mean.is_finite() {
+            return Err(Error::file(
+                path,
+                None,
+                Detail::expected(
+                    format!("finite values in channel {}", plane.name),
+                    format!("a mean of {mean} over {pixels} pixel(s)"),
+                ),
+            ));
+        }
+        channels.push((plane.name.clone(), c, mean));
+    }
+    Ok(Averaged { pixels, channels })
+}
+
+/// A spectrum from a spectral EXR, for a scene's `{ exr = "file.exr" }`: the reflective
+/// channels `T.<λ>nm` if there are any, else the unpolarised emissive ones `S0.<λ>nm`,
+/// each averaged over the pixels, as a table through their wavelengths (linear between,
+/// zero outside, like `{ wavelengths, values }`). The value is taken as written: a
+/// reflectance, or a radiance in the file's units (`scale` converts). Bispectral
+/// channels and S1–S3 are ignored. Errors name the file and the channel.
+pub fn spectrum(path: &Path) -> Result<Tabulated> {
+    let avg = read_averaged(path)?;
+    let reflective: Vec<(&str, f64, f32)> = avg
+        .channels
+        .iter()
+        .filter_map(|(name, c, v)| match c {
+            SpectralChannel::Reflective { nm } => Some((name.as_str(), *nm, *v)),
+            _ => None,
+        })
+        .collect();
+    let samples = if reflective.is_empty() {
+        avg.channels
+            .iter()
+            .filter_map(|(name, c, v)| match c {
+                SpectralChannel::Emissive { stokes: 0, nm } => Some((name.as_str(), *nm, *v)),
+                _ => None,
+            })
+            .collect()
+    } else {
+        reflective
+    };
+    if samples.is_empty() {
+        return Err(Error::file(
+            path,
+            None,
+            Detail::expected(
+                "spectral channels T.<λ>nm (reflective) or S0.<λ>nm (emissive), e.g. T.550,000000nm",
+                "none",
+            ),
+        ));
+    }
+    let mut samples = samples;
+    samples.sort_by(|a, b| a.1.total_cmp(&b.1));
+    for pair in samples.windows(2) {
+        if pair[0].1 as f32 == pair[1].1 as f32 {
+            return Err(Error::file(
+                path,
+                None,
+                format!(
+                    "channels {} and {} are the same wavelength ({} nm)",
+                    pair[0].0, pair[1].0, pair[1].1
+                ),
+            ));
+        }
+    }
+    let (w, v) = samples.iter().map(|s| (s.1 as f32, s.2)).unzip();
+    Tabulated::new(w, v).map_err(|e| Error::file(path, None, e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -289,6 +392,9 @@ mod tests {
         close("5,5e-7m", 550.0);
         close("545,0771Hz", LIGHT_SPEED / 545.0771 * 1e9);
         close("545,0771THz", LIGHT_SPEED / 545.0771e12 * 1e9);
+        // Nanometres exactly as written (the writer's numbers are the grid).
+        assert_eq!(parse_quantity("400,000000nm"), Some(400.0));
+        assert_eq!(parse_quantity("361,500000nm"), Some(361.5));
         for bad in [
             "550", "550.0nm", "nm", "5,5,0nm", "550xm", "R", "-550nm", "5e+nm",
         ] {

@@ -303,7 +303,8 @@ pub const KINDS: [(&str, &str); 6] = [
     (
         "fluorescent_diffuse",
         "reflectance = SPECTRUM (the diagonal) and dye = { absorption, emission, quantum_yield, \
-         cell_nm }, or matrix = \"file.csv\" or \"file.BFC\" (a measured matrix; reflectance optional)",
+         cell_nm }, or matrix = \"file.csv\", \"file.BFC\" or \"file.exr\" (a measured matrix, \
+         CSV, Labsphere BFC-450 or bispectral OpenEXR; reflectance optional)",
     ),
 ];
 
@@ -464,7 +465,7 @@ fn reradiation(
             })
         }
         _ => Err(key.error(
-            "expected exactly one of `dye = { ... }` or `matrix = \"file.csv\"` for a fluorescent_diffuse material",
+            "expected exactly one of `dye = { ... }` or `matrix = \"file.csv\"` (or .BFC, .exr) for a fluorescent_diffuse material",
         )),
     }
 }

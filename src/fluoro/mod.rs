@@ -23,8 +23,9 @@
 //! - [`Reradiation::diagonal_only`]: no fluorescence, exactly a plain diffuse reflectance.
 //! - [`Reradiation::from_dye`]: a parametric dye (absorption, emission, quantum yield).
 //! - [`Reradiation::from_csv`]: a measured matrix (format below).
-//! - [`Reradiation::from_file`]: a measured matrix in that CSV format or in the Labsphere
-//!   BFC-450 format of the RIT bispectral database ([`bfc`]).
+//! - [`Reradiation::from_file`]: a measured matrix in that CSV format, in the Labsphere
+//!   BFC-450 format of the RIT bispectral database ([`bfc`]), or as a bispectral OpenEXR
+//!   image ([`exr`]; [`Reradiation::to_exr`] writes one).
 //!
 //! # Measured matrix format (CSV)
 //! ```text
@@ -52,9 +53,11 @@
 //! sample's value over its pdf is D(λo) + σ_se(λo).
 
 pub mod bfc;
+pub mod exr;
 mod import;
 
 pub use bfc::BfcReport;
+pub use exr::ExrReport;
 pub use import::ImportReport;
 
 use crate::error::{Detail, Error, Key, KeyError};
@@ -66,6 +69,8 @@ pub enum MatrixReport {
     Csv(ImportReport),
     /// A BFC file: entries set to 0, columns dropped, rows not measured.
     Bfc(BfcReport),
+    /// A bispectral EXR: pixels averaged, entries set to 0.
+    Exr(ExrReport),
 }
 
 impl MatrixReport {
@@ -78,6 +83,7 @@ impl MatrixReport {
                     && r.excitation_dropped.is_none()
                     && r.emission_unmeasured.is_none()
             }
+            MatrixReport::Exr(r) => r.is_clean(),
         }
     }
 }
@@ -87,6 +93,7 @@ impl std::fmt::Display for MatrixReport {
         match self {
             MatrixReport::Csv(r) => r.fmt(f),
             MatrixReport::Bfc(r) => r.fmt(f),
+            MatrixReport::Exr(r) => r.fmt(f),
         }
     }
 }
@@ -357,11 +364,23 @@ impl Reradiation {
         Self::from_csv_str(&text, &path.display().to_string())
     }
 
-    /// A measured matrix from a file: a Labsphere BFC-450 file (recognised by its first
-    /// line, [`bfc`]) or CSV. The report says what the import changed.
+    /// A measured matrix from a file: a bispectral OpenEXR image (recognised by its magic
+    /// number, [`exr`]), a Labsphere BFC-450 file (recognised by its first line, [`bfc`])
+    /// or CSV. The report says what the import changed.
     pub fn from_file(path: &Path) -> crate::Result<(Reradiation, MatrixReport)> {
-        let text = std::fs::read_to_string(path)
+        let bytes = std::fs::read(path)
             .map_err(|e| Error::file(path, None, format!("cannot read: {e}")))?;
+        if exr::is_exr(path, &bytes) {
+            let (r, report) = exr::read(path)?;
+            return Ok((r, MatrixReport::Exr(report)));
+        }
+        let text = String::from_utf8(bytes).map_err(|_| {
+            Error::file(
+                path,
+                None,
+                "cannot read: not text (expected a CSV matrix, a BFC file or an OpenEXR image)",
+            )
+        })?;
         let source = path.display().to_string();
         if bfc::is_bfc(&text) {
             let (r, report) = bfc::parse(&text, &source)?;
@@ -403,6 +422,14 @@ impl Reradiation {
             out.push('\n');
         }
         Some(out)
+    }
+
+    /// Writes the matrix to `path` as a one-pixel bispectral OpenEXR image ([`exr`]: the
+    /// diagonal, F·h for every pair of cell centres, the diagonal's colour as R, G, B),
+    /// with `metadata` as `stokes:*` header attributes. An error for a surface without a
+    /// grid ([`Self::diagonal_only`]).
+    pub fn to_exr(&self, path: &Path, metadata: &[(String, String)]) -> crate::Result<()> {
+        exr::write(self, path, metadata)
     }
 
     /// [`Self::from_csv`] on text; `source` (usually the file name) is the file every error

@@ -7,6 +7,7 @@
 //! radiance = { illuminant = "D65", scale = 0.3 }      # any kind takes a scale (default 1)
 //! reflectance = { csv = "data/cc.csv", column = "red" }   # relative to the scene file
 //! reflectance = { wavelengths = [400, 500, 600], values = [0.1, 0.5, 0.2] }
+//! reflectance = { exr = "data/swatch.exr" }          # a spectral OpenEXR (T.<λ>nm or S0.<λ>nm)
 //! radiance = { narrow_band = 440, fwhm = 10 }         # a Gaussian line of unit integral
 //! ```
 //!
@@ -49,6 +50,10 @@ pub struct SpectrumTable {
     pub csv: Option<String>,
     /// With `csv`: the column's header name (needed when the file has several).
     pub column: Option<String>,
+    /// `{ exr = "file.exr" }`: a spectral OpenEXR image (path relative to the scene file),
+    /// its reflective channels `T.<λ>nm` or else its emissive `S0.<λ>nm`, each averaged
+    /// over the pixels ([`crate::spectral_exr::spectrum`]).
+    pub exr: Option<String>,
     /// `{ wavelengths = [...], values = [...] }`, linear between, zero outside.
     pub wavelengths: Option<Vec<f32>>,
     /// With `wavelengths`.
@@ -139,13 +144,14 @@ fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, K
         ("blackbody", t.blackbody.is_some()),
         ("illuminant", t.illuminant.is_some()),
         ("csv", t.csv.is_some()),
+        ("exr", t.exr.is_some()),
         ("wavelengths", t.wavelengths.is_some()),
         ("narrow_band", t.narrow_band.is_some()),
     ];
     let given: Vec<&str> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
     if given.len() != 1 {
         return Err(key.error(format!(
-            "expected exactly one of constant, blackbody, illuminant, csv, wavelengths, narrow_band; found {}",
+            "expected exactly one of constant, blackbody, illuminant, csv, exr, wavelengths, narrow_band; found {}",
             if given.is_empty() { "none".to_string() } else { given.join(", ") }
         )));
     }
@@ -176,6 +182,12 @@ fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, K
             let file = t.csv.as_deref().unwrap_or("");
             let tab = csv_column(&ctx.resolve(file), t.column.as_deref())
                 .map_err(|e| key.field("csv").error(e))?;
+            Spectrum::Tabulated(tab)
+        }
+        "exr" => {
+            let file = t.exr.as_deref().unwrap_or("");
+            let tab = crate::spectral_exr::spectrum(&ctx.resolve(file))
+                .map_err(|e| key.field("exr").error(e))?;
             Spectrum::Tabulated(tab)
         }
         "wavelengths" => {

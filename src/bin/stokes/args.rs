@@ -46,13 +46,15 @@ pub enum Command {
         after_long_help = converge::HELP
     )]
     Converge(ConvergeArgs),
-    /// Write a measured re-radiation matrix (a Labsphere BFC-450 file or a CSV matrix) as
-    /// the CSV a fluorescent_diffuse material's `matrix` key reads, with what the import
-    /// changed (clipped range, entries set to 0) in its header.
+    /// Write a measured re-radiation matrix (a Labsphere BFC-450 file, a CSV matrix or a
+    /// bispectral OpenEXR image) as the CSV a fluorescent_diffuse material's `matrix` key
+    /// reads, with what the import changed (clipped range, entries set to 0) in its
+    /// header, or (-o FILE.exr) as a one-pixel bispectral OpenEXR image in the spectral
+    /// layout of Fichet et al. (T.<λ>nm diagonal, T.<λi>nm.<λo>nm re-radiation).
     ConvertBispectral {
-        /// The measured matrix (.BFC or .csv).
+        /// The measured matrix (.BFC, .csv or .exr).
         input: PathBuf,
-        /// The CSV to write.
+        /// The file to write: .csv or .exr.
         #[arg(short, long)]
         output: PathBuf,
     },
