@@ -242,14 +242,14 @@ pub fn write_exr_planes(
     );
     let mut attrs = LayerAttributes::named("");
     attrs.software_name = Some(Text::from("stokes"));
-    let text = |v: &str| AttributeValue::Text(Text::from(v));
+    let text = |v: &str| AttributeValue::Text(utf8_text(v));
     for (k, v) in metadata {
         attrs
             .other
-            .insert(Text::from(format!("stokes:{k}").as_str()), text(v));
+            .insert(utf8_text(&format!("stokes:{k}")), text(v));
     }
     for (k, v) in plain {
-        attrs.other.insert(Text::from(*k), text(v));
+        attrs.other.insert(utf8_text(k), text(v));
     }
     let layer = Layer::new(
         (width as usize, height as usize),
@@ -264,6 +264,20 @@ pub fn write_exr_planes(
             .to_file(tmp)
             .map_err(|e| format!("cannot write EXR: {e}").into())
     })
+}
+
+/// `text` as an EXR text attribute, in UTF-8 as OpenEXR and OpenImageIO read it (the
+/// exr crate's own constructors take 8-bit characters only, and panic on others).
+fn utf8_text(text: &str) -> exr::meta::attribute::Text {
+    exr::meta::attribute::Text::from_slice_unchecked(text.as_bytes())
+}
+
+/// An EXR text attribute as a string: UTF-8, or else one character per byte (Latin-1).
+fn attribute_string(text: &exr::meta::attribute::Text) -> String {
+    match std::str::from_utf8(text.bytes()) {
+        Ok(s) => s.to_string(),
+        Err(_) => text.to_string(),
+    }
 }
 
 /// Every channel of an EXR's first layer, in the file's (alphabetical) order.
@@ -298,7 +312,7 @@ impl Channels {
         let all = layer.attributes.other.iter().chain(&image.attributes.other);
         for (k, v) in all {
             if let exr::meta::attribute::AttributeValue::Text(t) = v {
-                text.push((k.to_string(), t.to_string()));
+                text.push((attribute_string(k), attribute_string(t)));
             }
         }
         Ok(Channels {
@@ -348,9 +362,9 @@ pub fn read_exr(path: &Path) -> Result<ExrImage> {
     let mut meta = Vec::new();
     for (k, v) in &image.layer_data.attributes.other {
         if let exr::meta::attribute::AttributeValue::Text(t) = v {
-            let key = k.to_string();
+            let key = attribute_string(k);
             if let Some(stripped) = key.strip_prefix("stokes:") {
-                meta.push((stripped.to_string(), t.to_string()));
+                meta.push((stripped.to_string(), attribute_string(t)));
             }
         }
     }
@@ -590,6 +604,19 @@ mod tests {
         left.sort();
         assert_eq!(left, ["file", "sub"]);
         assert_eq!(std::fs::read_dir(dir.join("sub")).unwrap().count(), 0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn text_attributes_beyond_latin1_round_trip() {
+        let dir = std::env::temp_dir().join(format!("stokes-utf8-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("ü.exr");
+        let meta = vec![("scene".to_string(), "scènes/λ–note 雪.toml".to_string())];
+        write_exr(&target, 1, 1, &[[1.0; 3]], &meta).unwrap();
+        assert_eq!(read_exr(&target).unwrap().3, meta);
+        let all = Channels::read(&target).unwrap().stokes_attributes();
+        assert_eq!(all, meta);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -132,22 +132,7 @@ pub fn write(rr: &Reradiation, path: &Path, metadata: &[(String, String)]) -> Re
     })?;
     let rgb: Vec<[f32; 3]> = vec![[planes[0].data[0], planes[1].data[0], planes[2].data[0]]];
     planes.drain(..3);
-    let metadata: Vec<(String, String)> =
-        metadata.iter().map(|(k, v)| (ascii(k), ascii(v))).collect();
-    write_exr_planes(path, 1, 1, &rgb, &planes, &metadata, &[LAYOUT_VERSION])
-}
-
-/// `text` with what an EXR text attribute cannot hold replaced (the exr crate refuses,
-/// by panicking, characters beyond 8 bits; reports use dashes and Greek letters): `–` as
-/// `-`, anything else outside ASCII as `?`.
-fn ascii(text: &str) -> String {
-    text.chars()
-        .map(|c| match c {
-            '–' | '—' | '−' => '-',
-            c if c.is_ascii() => c,
-            _ => '?',
-        })
-        .collect()
+    write_exr_planes(path, 1, 1, &rgb, &planes, metadata, &[LAYOUT_VERSION])
 }
 
 /// A wavelength as a channel gives it, with the channel's name for errors.
