@@ -872,7 +872,14 @@ fn a_spectral_reference_adds_errors_in_spectral_radiance() {
     let dir = scratch("converge-spectral");
     let mut t = TestRender::at(8, 8).seed(3).threads(1).max_depth(3);
     t.opts.bins = Some(Bins::new(8, 400.0, 720.0).unwrap());
-    let mut scene = scene_from(FURNACE);
+    // A spectrum that rises tenfold across the bins: a bin compared with the wrong
+    // reference bin is far off.
+    let mut scene = scene_from(&enclosure(
+        "type = \"diffuse\"\nreflectance = 0.5",
+        "{ wavelengths = [360, 830], values = [0.2, 2.0] }",
+        16,
+        "",
+    ));
     scene.set_resolution(8, 8);
     let reference_path = dir.join("ref.exr");
     let job = stokes::tools::reference::Job {
@@ -907,6 +914,39 @@ fn a_spectral_reference_adds_errors_in_spectral_radiance() {
     // (1/16 + 1/64)) ≈ 3.6.
     assert!(spectral(cps.len() - 1).0 < spectral(0).0 / 2.0, "{:?}", cps);
     assert!(spectral(0).0 > 0.0 && spectral(0).1 > 0.0);
+    // The final errors are those of the same 16 spp rendered here, bin matched to
+    // reference bin by name.
+    let mut opts = converge::options_for(&job.methods[0], &base);
+    opts.bins = t.opts.bins;
+    let prog = stokes::integrator::render::Progressive {
+        first_sample: job.budget.first_sample,
+        max_spp: Some(16),
+        batch: 1,
+        ..Default::default()
+    };
+    let film =
+        stokes::integrator::render::render_progressive(&scene, &opts, &prog, &|| {}, &mut |_| {})
+            .unwrap()
+            .render
+            .film;
+    let (mut se, mut n) = (0.0f64, 0.0f64);
+    for plane in film.spectral_mean() {
+        let r = reference
+            .planes
+            .iter()
+            .find(|p| p.name == plane.name)
+            .unwrap();
+        for (x, y) in plane.data.iter().zip(&r.data) {
+            se += (*x as f64 - *y as f64).powi(2);
+            n += 1.0;
+        }
+    }
+    let expected = (se / n).sqrt();
+    let got = spectral(cps.len() - 1).0;
+    assert!(
+        (got - expected).abs() < 1e-9 * expected,
+        "{got} vs {expected}"
+    );
     let csv = std::fs::read_to_string(job.out_dir.join("convergence.csv")).unwrap();
     let row = csv.lines().nth(1).unwrap();
     let cols: Vec<&str> = row.split(',').collect();
