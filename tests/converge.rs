@@ -686,9 +686,16 @@ fn furnace_with_reference(
     let t = TestRender::at(8, 8).seed(3).threads(1).max_depth(3);
     let mut scene = scene_from(FURNACE);
     scene.set_resolution(8, 8);
+    let reference = reference_of(&scene, &t, dir);
+    (scene, t.opts, reference)
+}
+
+/// A 64-spp reference of `scene` with `t`'s settings, rendered in-process into
+/// `dir/ref.exr`.
+fn reference_of(scene: &stokes::scene::Scene, t: &TestRender, dir: &Path) -> PathBuf {
     let reference = dir.join("ref.exr");
     let job = stokes::tools::reference::Job {
-        scene: &scene,
+        scene,
         opts: &t.opts,
         spp: 64,
         out: &reference,
@@ -696,7 +703,7 @@ fn furnace_with_reference(
         stop: None,
     };
     stokes::tools::reference::render(&job, &mut |_| {}).unwrap();
-    (scene, t.opts, reference)
+    reference
 }
 
 #[test]
@@ -881,16 +888,7 @@ fn a_spectral_reference_adds_errors_in_spectral_radiance() {
         "",
     ));
     scene.set_resolution(8, 8);
-    let reference_path = dir.join("ref.exr");
-    let job = stokes::tools::reference::Job {
-        scene: &scene,
-        opts: &t.opts,
-        spp: 64,
-        out: &reference_path,
-        resume: false,
-        stop: None,
-    };
-    stokes::tools::reference::render(&job, &mut |_| {}).unwrap();
+    let reference_path = reference_of(&scene, &t, &dir);
     let reference = stokes::tools::merge::Part::read(&reference_path).unwrap();
     assert_eq!(converge::reference_bins(&reference).unwrap(), t.opts.bins);
     let mut base = t.opts.clone();
