@@ -1,5 +1,5 @@
 # The two commands the README opens with, plus a few conveniences.
-.PHONY: render test test-isas test-client deps bench-rays fmt lint
+.PHONY: render test test-isas test-client test-cluster deps bench-rays fmt lint
 
 deps:
 	./scripts/install-deps.sh
@@ -19,6 +19,15 @@ test-isas: deps
 # colour-science and OpenImageIO (Python, in a venv under target/) read our spectral EXRs.
 test-client: deps
 	./scripts/test-spectral-client.sh
+
+# stokes submit slurm against a single-node Slurm on loopback (scripts/slurm-local.sh; needs
+# root and Debian's slurm-wlm and munge): started, tests run, stopped even if they fail.
+test-cluster: deps
+	cargo build --release
+	scripts/slurm-local.sh start >/dev/null
+	. $${SLURM_LOCAL_ENV:-/tmp/stokes-slurm-local.env} && STOKES_CLUSTER=1 \
+	    cargo test --release --test cluster -- --test-threads=1; \
+	    rc=$$?; scripts/slurm-local.sh stop; exit $$rc
 
 bench-rays: deps
 	cargo run --release -- bench rays scenes/sphere-100k.toml

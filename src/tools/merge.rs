@@ -388,6 +388,77 @@ pub fn describe(report: &MergeReport, inputs: usize, out: &Path) -> String {
     )
 }
 
+/// Parses `START..END`, the sample indices `--expect` asks for.
+pub fn parse_expected(text: &str) -> std::result::Result<(u64, u64), String> {
+    let bad = || format!("expected START..END (sample indices, START < END), found {text:?}");
+    let (a, b) = text.split_once("..").ok_or_else(bad)?;
+    let (a, b): (u64, u64) = (a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?);
+    if a >= b {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+/// How much of samples `[start, end)` `ranges` hold, of the seed of their first range:
+/// `complete: 32 of the 32 spp asked for (samples 0..32)` or `incomplete: 24 of the 32 spp
+/// asked for (samples 0..32); missing part 1 (samples 8..16)`. With `part_spp` K, part i
+/// is samples `[i·K, (i+1)·K)` and the missing samples are named by part (`samples
+/// 20..24 of 16..24` for a piece of one); without it, as ranges.
+pub fn completeness(ranges: &[SampleRange], start: u64, end: u64, part_spp: Option<u64>) -> String {
+    let seed = ranges.first().map_or(0, |r| r.seed);
+    let held: Vec<SampleRange> =
+        normalise(ranges.iter().filter(|r| r.seed == seed).copied().collect());
+    let mut gaps = Vec::new();
+    let mut at = start;
+    for r in &held {
+        if r.end <= at || r.start >= end {
+            continue;
+        }
+        if r.start > at {
+            gaps.push((at, r.start));
+        }
+        at = at.max(r.end);
+    }
+    if at < end {
+        gaps.push((at, end));
+    }
+    let asked = end - start;
+    let missing: u64 = gaps.iter().map(|(a, b)| b - a).sum();
+    let head = format!(
+        "{} of the {asked} spp asked for (samples {start}..{end} of seed {seed})",
+        asked - missing
+    );
+    if gaps.is_empty() {
+        return format!("complete: {head}");
+    }
+    let named: Vec<String> = match part_spp.filter(|&k| k > 0) {
+        Some(k) => gaps
+            .iter()
+            .flat_map(|&(a, b)| {
+                let mut pieces = Vec::new();
+                let mut x = a;
+                while x < b {
+                    let i = x / k;
+                    let (lo, hi) = (i * k, (i + 1) * k);
+                    let y = b.min(hi);
+                    pieces.push(if x == lo && y == hi {
+                        format!("part {i} (samples {x}..{y})")
+                    } else {
+                        format!("part {i} (samples {x}..{y} of {lo}..{hi})")
+                    });
+                    x = y;
+                }
+                pieces
+            })
+            .collect(),
+        None => gaps
+            .iter()
+            .map(|(a, b)| format!("samples {a}..{b}"))
+            .collect(),
+    };
+    format!("incomplete: {head}; missing {}", named.join(", "))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -419,6 +490,29 @@ mod tests {
             planes: Vec::new(),
             header,
         }
+    }
+
+    #[test]
+    fn completeness_names_the_missing_parts() {
+        let r = |start, end| SampleRange {
+            seed: 3,
+            start,
+            end,
+        };
+        assert_eq!(
+            completeness(&[r(0, 8), r(24, 32)], 0, 32, Some(8)),
+            "incomplete: 16 of the 32 spp asked for (samples 0..32 of seed 3); missing part 1 (samples 8..16), part 2 (samples 16..24)"
+        );
+        assert_eq!(
+            completeness(&[r(0, 8), r(8, 13)], 0, 16, Some(8)),
+            "incomplete: 13 of the 16 spp asked for (samples 0..16 of seed 3); missing part 1 (samples 13..16 of 8..16)"
+        );
+        assert_eq!(
+            completeness(&[r(0, 16)], 0, 16, None),
+            "complete: 16 of the 16 spp asked for (samples 0..16 of seed 3)"
+        );
+        assert_eq!(parse_expected("0..32"), Ok((0, 32)));
+        assert!(parse_expected("5..5").is_err());
     }
 
     #[test]

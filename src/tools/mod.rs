@@ -4,6 +4,7 @@
 //! - [`merge`]: `stokes merge`, the spp-weighted mean of renders with disjoint samples;
 //! - [`reference`]: `stokes reference`, long references that can be resumed;
 //! - [`converge`]: `stokes converge`, error against time and spp for several methods;
+//! - [`submit`]: `stokes submit slurm`, a render split into a Slurm job array and a merge;
 //! - [`chart`]: the log–log charts `converge` draws;
 //! - [`convert`]: `stokes convert-bispectral`, a measured matrix (BFC, CSV) as CSV;
 //! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`.
@@ -16,3 +17,4 @@ pub mod converge;
 pub mod convert;
 pub mod merge;
 pub mod reference;
+pub mod submit;

@@ -58,12 +58,35 @@ pub enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Submit a render split into parts to a batch scheduler (Slurm), with a merge job.
+    Submit {
+        #[command(subcommand)]
+        what: SubmitCommand,
+    },
     /// Benchmarks.
     Bench {
         #[command(subcommand)]
         what: BenchCommand,
     },
 }
+
+#[derive(Subcommand)]
+pub enum SubmitCommand {
+    /// A Slurm job array, one task per part (samples [i·K, (i+1)·K) of part i, with
+    /// --variance), and a merge job that runs after every task has ended, whatever became
+    /// of it, merges the parts that exist into DIR/result.exr and reports the spp got
+    /// against the spp asked for. Assumes a filesystem shared by this machine and every
+    /// node: the scripts name the scene, DIR and this stokes binary by their absolute paths.
+    #[command(after_help = SUBMIT_HELP)]
+    Slurm(SubmitSlurmArgs),
+}
+
+const SUBMIT_HELP: &str =
+    "Writes DIR/render.sbatch, DIR/merge.sbatch, DIR/logs/; parts go to DIR/parts/part-<i>.exr. \
+With --time-limit, stokes gets --time (the limit less max(60 s, 10 %), at least half of it) \
+so that its last pass ends in time; at Slurm's SIGTERM it finishes the pass in flight and \
+writes what it has. --resume DIR submits only the sample ranges DIR/parts does not hold \
+(e.g. of failed or timed-out tasks) and a new merge.";
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
@@ -239,6 +262,48 @@ pub struct MergeArgs {
     /// Also merge the parts' <part>.variance.exr into <output>.variance.exr.
     #[arg(long)]
     pub variance: bool,
+    /// The sample indices START..END the merge should hold: report the spp got against
+    /// the spp asked for and the samples missing.
+    #[arg(long, value_name = "START..END", value_parser = stokes::tools::merge::parse_expected)]
+    pub expect: Option<(u64, u64)>,
+    /// With --expect: the parts are K spp each (part i holds [i·K, (i+1)·K)); name the
+    /// missing samples by part.
+    #[arg(long, value_name = "K", requires = "expect")]
+    pub part_spp: Option<u64>,
+}
+
+#[derive(Args)]
+pub struct SubmitSlurmArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Parts (array tasks) to split the render into.
+    #[arg(long, value_name = "N")]
+    pub parts: u32,
+    /// Samples per pixel of each part (the render has N·K).
+    #[arg(long, value_name = "K")]
+    pub spp_per_part: u32,
+    /// Each task's time limit, HH:MM:SS or D-HH:MM:SS (sbatch --time).
+    #[arg(long, value_name = "HH:MM:SS", value_parser = stokes::tools::submit::parse_time_limit)]
+    pub time_limit: Option<u64>,
+    /// The Slurm partition.
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// CPUs per task (stokes renders with as many threads; default: Slurm's, one).
+    #[arg(long, value_name = "C")]
+    pub cpus_per_task: Option<u32>,
+    /// The render directory (default: out/slurm/<scene name>).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Submit only the sample ranges DIR/parts does not hold yet (of this scene file), and
+    /// a new merge.
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
+    /// Print the scripts and the sbatch commands; write and submit nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// More sbatch options (after --), given to both jobs: -- --account=A --mem=4G
+    #[arg(last = true, value_name = "SBATCH OPTIONS")]
+    pub sbatch_args: Vec<String>,
 }
 
 #[derive(Args, Clone)]

@@ -15,7 +15,7 @@ use stokes::integrator::render::{ProgressiveResult, Stopped};
 use stokes::method::{Method, Resolved};
 use stokes::output::{RenderFiles, RenderStats};
 use stokes::scene::Scene;
-use stokes::tools::{converge, merge, reference};
+use stokes::tools::{converge, merge, reference, submit};
 use stokes::Result;
 
 fn main() -> ExitCode {
@@ -39,6 +39,9 @@ fn main() -> ExitCode {
             ok(stokes::tools::convert::convert_bispectral(&input, &output)
                 .map(|report| eprintln!("{}: {report} → {}", input.display(), output.display())))
         }
+        Command::Submit {
+            what: SubmitCommand::Slurm(a),
+        } => ok(cmd_submit_slurm(&a)),
         Command::Bench { what } => ok(bench::run(&what)),
     };
     result.unwrap_or_else(|e| {
@@ -193,8 +196,168 @@ fn interrupted(done: &ProgressiveResult, what_now: impl Fn() -> String) -> ExitC
 }
 
 fn cmd_merge(a: &MergeArgs) -> Result<()> {
+    if a.part_spp == Some(0) {
+        return Err(at_least_one("--part-spp"));
+    }
     let report = merge::merge(&a.inputs, &a.output, a.variance)?;
     eprintln!("{}", merge::describe(&report, a.inputs.len(), &a.output));
+    if let Some((start, end)) = a.expect {
+        eprintln!(
+            "{}",
+            merge::completeness(&report.ranges, start, end, a.part_spp)
+        );
+    }
+    Ok(())
+}
+
+/// A path made absolute against the working directory (not resolving links).
+fn absolute(option: &str, p: &Path) -> Result<PathBuf> {
+    std::path::absolute(p)
+        .map_err(|e| Error::about_option(option, p, format!("has no absolute path: {e}")))
+}
+
+fn cmd_submit_slurm(a: &SubmitSlurmArgs) -> Result<()> {
+    if a.parts == 0 {
+        return Err(at_least_one("--parts"));
+    }
+    if a.spp_per_part == 0 {
+        return Err(at_least_one("--spp-per-part"));
+    }
+    if (a.parts as u64) * (a.spp_per_part as u64) > u32::MAX as u64 {
+        return Err(Error::option(
+            "--spp-per-part",
+            format!(
+                "{} parts × {} spp exceed the 32-bit sample index",
+                a.parts, a.spp_per_part
+            ),
+        ));
+    }
+    if a.cpus_per_task == Some(0) {
+        return Err(at_least_one("--cpus-per-task"));
+    }
+    if let Some(p) = &a.partition {
+        if p.is_empty()
+            || !p
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "_-.,".contains(c))
+        {
+            return Err(Error::option(
+                "--partition",
+                format!("expected a Slurm partition name (letters, digits, _ - . ,), found {p:?}"),
+            ));
+        }
+    }
+    let scene = load(&a.scene)?;
+    let out = match (&a.resume, &a.out) {
+        (Some(r), Some(o)) if absolute("--out", o)? != absolute("--resume", r)? => {
+            return Err(Error::option(
+                "--resume",
+                format!(
+                    "expected the same directory as --out, found {} and {}",
+                    r.display(),
+                    o.display()
+                ),
+            ))
+        }
+        (Some(r), _) => {
+            if !r.is_dir() {
+                return Err(Error::about_option(
+                    "--resume",
+                    r,
+                    "is not a directory (submit without --resume first)",
+                ));
+            }
+            r.clone()
+        }
+        (None, Some(o)) => o.clone(),
+        (None, None) => PathBuf::from("out/slurm").join(scene.name()),
+    };
+    let option = if a.resume.is_some() {
+        "--resume"
+    } else {
+        "--out"
+    };
+    let sbatch = if a.dry_run {
+        None
+    } else {
+        Some(submit::find_on_path("sbatch").ok_or_else(|| {
+            Error::Other(
+                "sbatch not found on the PATH: submit from a Slurm login node, or use --dry-run to see the scripts"
+                    .into(),
+            )
+        })?)
+    };
+    let parts = submit::read_parts(&out)?;
+    submit::check_same_scene(option, &parts, &a.scene, &scene.hash)?;
+    if a.resume.is_none() {
+        if let Some(p) = parts.first() {
+            return Err(Error::about_option(
+                "--out",
+                &p.path,
+                "exists: the directory already holds parts of this render (add --resume to render only the samples it lacks, or choose another --out)",
+            ));
+        }
+    }
+    let seed = scene.render.seed;
+    let present: Vec<_> = parts
+        .iter()
+        .flat_map(|p| p.header.ranges.iter().copied())
+        .filter(|r| r.seed == seed)
+        .collect();
+    let abs_out = absolute(option, &out)?;
+    let exe = std::env::current_exe()
+        .map_err(|e| Error::Other(format!("cannot find the stokes binary: {e}")))?;
+    let name: String = scene
+        .name()
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "_-.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let req = submit::Request {
+        scene: absolute("SCENE", &a.scene)?,
+        seed,
+        parts: a.parts,
+        spp_per_part: a.spp_per_part,
+        time_limit: a.time_limit,
+        partition: a.partition.clone(),
+        cpus_per_task: a.cpus_per_task,
+        out: abs_out.clone(),
+        stokes: exe,
+        job_name: format!("stokes-{name}"),
+        sbatch_args: a.sbatch_args.clone(),
+    };
+    let plan = submit::plan(&req, &present, |f| abs_out.join("parts").join(f).exists())?;
+    let Some(sbatch) = sbatch else {
+        print!("{}", submit::describe_dry_run(&req, &plan));
+        return Ok(());
+    };
+    let done = submit::submit(&req, &plan, &sbatch)?;
+    let asked = submit::asked(&req);
+    match &done.render_job {
+        Some(id) => {
+            let spp: u64 = plan.tasks.iter().map(|t| t.spp).sum();
+            println!(
+                "render job: {id} ({} tasks, {spp} of the {} spp asked for)",
+                plan.tasks.len(),
+                asked.len()
+            );
+        }
+        None => println!(
+            "render job: none ({} holds every sample asked for)",
+            out.display()
+        ),
+    }
+    println!(
+        "merge job: {} (after every render task has ended)",
+        done.merge_job
+    );
+    println!("result: {}", abs_out.join("result.exr").display());
+    println!("logs: {}", abs_out.join("logs").display());
     Ok(())
 }
 
