@@ -98,6 +98,28 @@ pub fn normalise(mut ranges: Vec<SampleRange>) -> Vec<SampleRange> {
     out
 }
 
+/// The sample indices of `[start, end)` that no range of `held` covers, as `(start, end)`
+/// pairs in order (every range counts, whatever its seed: pass one seed's ranges).
+pub fn gaps(held: &[SampleRange], start: u64, end: u64) -> Vec<(u64, u64)> {
+    let mut held = held.to_vec();
+    held.sort();
+    let mut out = Vec::new();
+    let mut at = start;
+    for r in &held {
+        if r.end <= at || r.start >= end {
+            continue;
+        }
+        if r.start > at {
+            out.push((at, r.start));
+        }
+        at = at.max(r.end);
+    }
+    if at < end {
+        out.push((at, end));
+    }
+    out
+}
+
 /// The header text of a list of ranges: `SEED:START..END` separated by spaces.
 pub fn format_ranges(ranges: &[SampleRange]) -> String {
     ranges

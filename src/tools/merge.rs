@@ -406,22 +406,8 @@ pub fn parse_expected(text: &str) -> std::result::Result<(u64, u64), String> {
 /// 20..24 of 16..24` for a piece of one); without it, as ranges.
 pub fn completeness(ranges: &[SampleRange], start: u64, end: u64, part_spp: Option<u64>) -> String {
     let seed = ranges.first().map_or(0, |r| r.seed);
-    let held: Vec<SampleRange> =
-        normalise(ranges.iter().filter(|r| r.seed == seed).copied().collect());
-    let mut gaps = Vec::new();
-    let mut at = start;
-    for r in &held {
-        if r.end <= at || r.start >= end {
-            continue;
-        }
-        if r.start > at {
-            gaps.push((at, r.start));
-        }
-        at = at.max(r.end);
-    }
-    if at < end {
-        gaps.push((at, end));
-    }
+    let held: Vec<SampleRange> = ranges.iter().filter(|r| r.seed == seed).copied().collect();
+    let gaps = crate::header::gaps(&held, start, end);
     let asked = end - start;
     let missing: u64 = gaps.iter().map(|(a, b)| b - a).sum();
     let head = format!(

@@ -16,7 +16,7 @@
 //! merge, `result.exr` and `result.variance.exr`.
 
 use crate::error::Error;
-use crate::header::{normalise, SampleRange};
+use crate::header::SampleRange;
 use crate::tools::merge::Part;
 use crate::Result;
 use std::path::{Path, PathBuf};
@@ -90,25 +90,10 @@ pub fn missing_tasks(
     exists: impl Fn(&str) -> bool,
 ) -> Vec<Task> {
     let k = spp_per_part as u64;
-    let present = normalise(present.to_vec());
     let mut tasks = Vec::new();
     for i in 0..parts {
         let (lo, hi) = (i as u64 * k, (i as u64 + 1) * k);
-        let mut at = lo;
-        let mut gaps = Vec::new();
-        for r in &present {
-            if r.end <= at || r.start >= hi {
-                continue;
-            }
-            if r.start > at {
-                gaps.push((at, r.start));
-            }
-            at = at.max(r.end);
-        }
-        if at < hi {
-            gaps.push((at, hi));
-        }
-        for (a, b) in gaps {
+        for (a, b) in crate::header::gaps(present, lo, hi) {
             let whole = part_file(i);
             let file = if a == lo && b == hi && !exists(&whole) {
                 whole
