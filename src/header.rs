@@ -24,7 +24,7 @@
 use crate::error::{Detail, Error, Key};
 use crate::integrator::render::{RenderOptions, Stopped};
 use crate::medium::tracking::Tracking;
-use crate::method::{Axis, Dispersion, Rays, Resolved, Shifting, Spectral};
+use crate::method::{Axis, Dispersion, Rays, Resolved, Shifting, Spectral, Wavelengths};
 use crate::scene::Scene;
 use crate::Result;
 use std::collections::BTreeMap;
@@ -193,8 +193,9 @@ pub struct RenderHeader {
 
 /// The settings besides the scene and size that images must share to be merged or
 /// compared: they change the image (`rays` does not, but one header names one method).
-pub const SETTINGS: [&str; 6] = [
+pub const SETTINGS: [&str; 7] = [
     "spectral",
+    "wavelengths",
     "shifting",
     "tracking",
     "max_depth",
@@ -247,6 +248,7 @@ impl RenderHeader {
         let m = &self.method;
         match key {
             "spectral" => m.spectral.name().into(),
+            "wavelengths" => m.wavelengths.name().into(),
             "shifting" => m.shifting.name().into(),
             "tracking" => m.tracking.name().into(),
             "max_depth" => self.max_depth.to_string(),
@@ -323,11 +325,18 @@ impl RenderHeader {
             return Err(expected(file, "spp", "a count ≥ 1", spp_text));
         }
         let scene_hash = get("scene_hash")?.clone();
-        for k in SETTINGS {
+        for k in SETTINGS.iter().filter(|&&k| k != "wavelengths") {
             get(k)?;
         }
+        // Files from before the wavelengths axis (stokes 0.x up to this change) have no
+        // stokes:wavelengths: they all sampled uniformly, so that is what they hold.
+        let wavelengths = match attrs.get("wavelengths") {
+            Some(v) => axis::<Wavelengths>(file, "wavelengths", v)?,
+            None => Wavelengths::Uniform,
+        };
         let method = Resolved {
             spectral: axis::<Spectral>(file, "spectral", get("spectral")?)?,
+            wavelengths,
             shifting: axis::<Shifting>(file, "shifting", get("shifting")?)?,
             tracking: axis::<Tracking>(file, "tracking", get("tracking")?)?,
             rays: axis::<Rays>(file, "rays", get("rays")?)?,

@@ -3,13 +3,14 @@
 //! | axis | values (default first) | what it chooses |
 //! | --- | --- | --- |
 //! | spectral | `hwss`, `mono` | four hero-driven wavelengths per path, or one |
+//! | wavelengths | `uniform`, `visible` | the hero's pdf: uniform, or by visible importance |
 //! | shifting | `independent`, `constant` | how the four lanes move at a fluorescent vertex |
 //! | tracking | the scene's default, `classic`, `max`, `fluo-aware` | distance sampling in media |
 //! | rays | `packet`, `packet8`, `lockstep`, `single` | how paths meet Embree |
 //! | dispersion | `split`, `drop` | what a dispersive refraction does to the lanes |
 //!
 //! A method's name is its values joined by `-` in that order, for example
-//! `hwss-independent-fluo-aware-packet-split`: the command line (`stokes converge
+//! `hwss-visible-independent-fluo-aware-packet-split`: the command line (`stokes converge
 //! --methods`), the EXR header (one attribute per axis) and the reports all use these
 //! spellings ([`Axis::name`]). Every value belongs to exactly one axis, so a name may list
 //! the values in any order and leave axes out; those keep the values of a base method
@@ -22,6 +23,7 @@
 use crate::error::Detail;
 use crate::medium::tracking::Tracking;
 use crate::scene::Scene;
+pub use crate::spectrum::Wavelengths;
 use std::fmt;
 use std::str::FromStr;
 
@@ -98,6 +100,11 @@ pub enum Spectral {
 axis!(Spectral, "spectral", [
     Spectral::Hwss => "hwss": "four wavelengths per path, a hero and three a quarter of the range apart",
     Spectral::Mono => "mono": "one wavelength per path",
+]);
+
+axis!(Wavelengths, "wavelengths", [
+    Wavelengths::Uniform => "uniform": "the hero uniform over 360-830 nm, the lanes a quarter of the range apart",
+    Wavelengths::Visible => "visible": "the hero by visible importance (x+y+z CMFs with a floor), the lanes a quarter of its CDF apart",
 ]);
 
 /// How the four lanes of a path move at a fluorescent vertex (HWSS only).
@@ -188,6 +195,8 @@ axis!(Dispersion, "dispersion", [
 pub struct Method<T = Option<Tracking>> {
     /// Wavelengths per path.
     pub spectral: Spectral,
+    /// The hero wavelength's pdf.
+    pub wavelengths: Wavelengths,
     /// Lane shifting at fluorescent events (HWSS).
     pub shifting: Shifting,
     /// Distance sampling in media.
@@ -199,11 +208,12 @@ pub struct Method<T = Option<Tracking>> {
 }
 
 impl Default for Method {
-    /// What `stokes render` does without flags: `hwss-independent-packet-split` with the
+    /// What `stokes render` does without flags: `hwss-uniform-independent-packet-split` with the
     /// scene's default tracking.
     fn default() -> Method {
         Method {
             spectral: Spectral::default(),
+            wavelengths: Wavelengths::default(),
             shifting: Shifting::default(),
             tracking: None,
             rays: Rays::default(),
@@ -243,6 +253,7 @@ impl<T> Method<T> {
     pub fn with_tracking<U>(self, tracking: U) -> Method<U> {
         Method {
             spectral: self.spectral,
+            wavelengths: self.wavelengths,
             shifting: self.shifting,
             tracking,
             rays: self.rays,
@@ -253,9 +264,10 @@ impl<T> Method<T> {
 
 impl Resolved {
     /// The values' names in axis order.
-    pub fn parts(&self) -> [&'static str; 5] {
+    pub fn parts(&self) -> [&'static str; 6] {
         [
             self.spectral.name(),
+            self.wavelengths.name(),
             self.shifting.name(),
             self.tracking.name(),
             self.rays.name(),
@@ -332,22 +344,25 @@ impl<T: Copy + From<Tracking>> Method<T> {
 }
 
 /// The name: the values joined by `-` in axis order, the tracking left out where the
-/// scene chooses it (`hwss-independent-packet-split`).
+/// scene chooses it (`hwss-uniform-independent-packet-split`).
 impl fmt::Display for Method {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = self.with_tracking(Tracking::Classic);
         let mut parts: Vec<&str> = r.parts().to_vec();
         match self.tracking {
-            Some(t) => parts[2] = t.name(),
+            Some(t) => parts[TRACKING] = t.name(),
             None => {
-                parts.remove(2);
+                parts.remove(TRACKING);
             }
         }
         f.write_str(&parts.join("-"))
     }
 }
 
-/// The full name, `hwss-independent-fluo-aware-packet-split`.
+/// Where the tracking stands in [`Resolved::parts`].
+const TRACKING: usize = 3;
+
+/// The full name, `hwss-uniform-independent-fluo-aware-packet-split`.
 impl fmt::Display for Resolved {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.parts().join("-"))
@@ -366,6 +381,7 @@ impl FromStr for Method {
 #[derive(Debug, Clone, Copy)]
 enum AxisValue {
     Spectral(Spectral),
+    Wavelengths(Wavelengths),
     Shifting(Shifting),
     Tracking(Tracking),
     Rays(Rays),
@@ -376,16 +392,20 @@ impl AxisValue {
     /// Every value of every axis.
     fn all() -> impl Iterator<Item = AxisValue> {
         let s = Spectral::VALUES.iter().map(|&v| AxisValue::Spectral(v));
+        let w = Wavelengths::VALUES
+            .iter()
+            .map(|&v| AxisValue::Wavelengths(v));
         let h = Shifting::VALUES.iter().map(|&v| AxisValue::Shifting(v));
         let t = Tracking::VALUES.iter().map(|&v| AxisValue::Tracking(v));
         let r = Rays::VALUES.iter().map(|&v| AxisValue::Rays(v));
         let d = Dispersion::VALUES.iter().map(|&v| AxisValue::Dispersion(v));
-        s.chain(h).chain(t).chain(r).chain(d)
+        s.chain(w).chain(h).chain(t).chain(r).chain(d)
     }
 
     fn axis(self) -> &'static str {
         match self {
             AxisValue::Spectral(_) => Spectral::NAME,
+            AxisValue::Wavelengths(_) => Wavelengths::NAME,
             AxisValue::Shifting(_) => Shifting::NAME,
             AxisValue::Tracking(_) => Tracking::NAME,
             AxisValue::Rays(_) => Rays::NAME,
@@ -396,6 +416,7 @@ impl AxisValue {
     fn name(self) -> &'static str {
         match self {
             AxisValue::Spectral(v) => v.name(),
+            AxisValue::Wavelengths(v) => v.name(),
             AxisValue::Shifting(v) => v.name(),
             AxisValue::Tracking(v) => v.name(),
             AxisValue::Rays(v) => v.name(),
@@ -406,6 +427,7 @@ impl AxisValue {
     fn set<T: From<Tracking>>(self, m: &mut Method<T>) {
         match self {
             AxisValue::Spectral(v) => m.spectral = v,
+            AxisValue::Wavelengths(v) => m.wavelengths = v,
             AxisValue::Shifting(v) => m.shifting = v,
             AxisValue::Tracking(v) => m.tracking = v.into(),
             AxisValue::Rays(v) => m.rays = v,
@@ -421,6 +443,7 @@ pub fn describe_axes() -> String {
     }
     [
         one::<Spectral>(),
+        one::<Wavelengths>(),
         one::<Shifting>(),
         one::<Tracking>(),
         one::<Rays>(),
@@ -445,6 +468,7 @@ mod tests {
     #[test]
     fn axes_round_trip() {
         round_trip::<Spectral>();
+        round_trip::<Wavelengths>();
         round_trip::<Shifting>();
         round_trip::<Tracking>();
         round_trip::<Rays>();
@@ -460,11 +484,14 @@ mod tests {
     #[test]
     fn the_default_is_what_render_does_without_flags() {
         let m = Method::default();
-        assert_eq!(m.to_string(), "hwss-independent-packet-split");
+        assert_eq!(m.to_string(), "hwss-uniform-independent-packet-split");
         assert_eq!(m.tracking, None);
         assert!("".parse::<Method>().is_err());
         let fixed: Method = "mono-max".parse().unwrap();
-        assert_eq!(fixed.to_string(), "mono-independent-max-packet-split");
+        assert_eq!(
+            fixed.to_string(),
+            "mono-uniform-independent-max-packet-split"
+        );
     }
 
     #[test]
@@ -477,13 +504,20 @@ mod tests {
         let m = Method::parse_with("hwss-independent-fluo-aware-packet", &base).unwrap();
         assert_eq!(m.tracking, Tracking::FluoAware);
         assert_eq!(m.rays, Rays::Packet);
-        assert_eq!(m.to_string(), "hwss-independent-fluo-aware-packet-drop");
+        assert_eq!(
+            m.to_string(),
+            "hwss-uniform-independent-fluo-aware-packet-drop"
+        );
         assert_eq!(Method::parse_with(&m.to_string(), &base).unwrap(), m);
         let open: Method = m.to_string().parse().unwrap();
         assert_eq!(open.tracking, Some(Tracking::FluoAware));
         assert_eq!(open.with_tracking(Tracking::FluoAware), m);
-        let n = Method::parse_with("packet-fluo-aware-split-mono", &base).unwrap();
-        assert_eq!(n.to_string(), "mono-independent-fluo-aware-packet-split");
+        let n = Method::parse_with("packet-fluo-aware-split-mono-visible", &base).unwrap();
+        assert_eq!(n.wavelengths, Wavelengths::Visible);
+        assert_eq!(
+            n.to_string(),
+            "mono-visible-independent-fluo-aware-packet-split"
+        );
         assert_eq!(
             Method::parse_with("max", &base).unwrap().tracking,
             Tracking::Max
@@ -492,6 +526,7 @@ mod tests {
             "hwss-fluo",
             "aware",
             "hwss-mono",
+            "uniform-visible",
             "",
             "hwss--single",
             "HWSS",

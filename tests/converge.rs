@@ -84,7 +84,7 @@ fn fails(args: &[&str]) -> String {
 #[derive(Debug, Clone)]
 struct Row {
     method: String,
-    axes: [String; 5],
+    axes: [String; 6],
     pass: u32,
     spp: u32,
     seconds: f64,
@@ -100,16 +100,16 @@ fn read_csv(path: &Path) -> Vec<Row> {
     lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            assert_eq!(f.len(), 14, "{l}");
+            assert_eq!(f.len(), 15, "{l}");
             Row {
                 method: f[0].into(),
                 axes: std::array::from_fn(|k| f[1 + k].to_string()),
-                pass: f[6].parse().unwrap(),
-                spp: f[7].parse().unwrap(),
-                seconds: f[8].parse().unwrap(),
-                region: f[9].into(),
-                rmse: f[10].parse().unwrap(),
-                relmse: f[11].parse().unwrap(),
+                pass: f[7].parse().unwrap(),
+                spp: f[8].parse().unwrap(),
+                seconds: f[9].parse().unwrap(),
+                region: f[10].into(),
+                rmse: f[11].parse().unwrap(),
+                relmse: f[12].parse().unwrap(),
             }
         })
         .collect()
@@ -179,12 +179,16 @@ fn furnace_error_falls_as_one_over_root_spp() {
         &s(&out),
     ]);
     let rows = read_csv(&out.join("convergence.csv"));
-    // No fluorescence, media or dispersion: spectral × rays only.
+    // No fluorescence, media or dispersion: spectral × wavelengths × rays only.
     let expect = [
-        "hwss-independent-classic-single-split",
-        "hwss-independent-classic-packet-split",
-        "mono-independent-classic-single-split",
-        "mono-independent-classic-packet-split",
+        "hwss-uniform-independent-classic-single-split",
+        "hwss-uniform-independent-classic-packet-split",
+        "hwss-visible-independent-classic-single-split",
+        "hwss-visible-independent-classic-packet-split",
+        "mono-uniform-independent-classic-single-split",
+        "mono-uniform-independent-classic-packet-split",
+        "mono-visible-independent-classic-single-split",
+        "mono-visible-independent-classic-packet-split",
     ];
     assert_eq!(methods(&rows), expect);
     let checkpoints: Vec<u32> = (0..=8).map(|k| 1 << k).collect();
@@ -192,14 +196,20 @@ fn furnace_error_falls_as_one_over_root_spp() {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.method == m).collect();
         assert_eq!(mine.len(), checkpoints.len() * 2, "{m}");
         let axes: Vec<&str> = m.splitn(3, '-').collect();
+        let wavelengths = if m.contains("visible") {
+            "visible"
+        } else {
+            "uniform"
+        };
         for (i, pair) in mine.chunks(2).enumerate() {
             assert_eq!(pair[0].region, "image");
             assert_eq!(pair[1].region, "sphere");
             for r in pair {
                 assert_eq!((r.spp, r.pass), (checkpoints[i], checkpoints[i]), "{m}");
                 assert_eq!(r.axes[0], axes[0]);
+                assert_eq!(r.axes[1], wavelengths);
                 assert_eq!(
-                    r.axes[3],
+                    r.axes[4],
                     if m.contains("packet") {
                         "packet"
                     } else {
@@ -265,7 +275,7 @@ fn furnace_error_falls_as_one_over_root_spp() {
         &s(&out2),
     ]);
     let rows2 = read_csv(&out2.join("convergence.csv"));
-    for m in [expect[1], expect[3]] {
+    for m in [expect[1], expect[5]] {
         let k = slope(&curve(&rows2, m, "image"));
         assert!(
             k > -0.35,
@@ -294,14 +304,18 @@ fn furnace_error_falls_as_one_over_root_spp() {
     assert_eq!(
         methods(&rows3),
         [
-            "mono-independent-classic-packet-split",
-            "hwss-independent-classic-packet-split"
+            "mono-uniform-independent-classic-packet-split",
+            "hwss-uniform-independent-classic-packet-split"
         ]
     );
-    let spps: Vec<u32> = curve(&rows3, "hwss-independent-classic-packet-split", "image")
-        .iter()
-        .map(|p| p.0)
-        .collect();
+    let spps: Vec<u32> = curve(
+        &rows3,
+        "hwss-uniform-independent-classic-packet-split",
+        "image",
+    )
+    .iter()
+    .map(|p| p.0)
+    .collect();
     assert_eq!(spps, [1, 2, 4, 8, 16, 20]);
     let out4 = dir.join("conv-mono");
     ok(&[
@@ -321,8 +335,10 @@ fn furnace_error_falls_as_one_over_root_spp() {
     assert_eq!(
         methods(&read_csv(&out4.join("convergence.csv"))),
         [
-            "mono-independent-classic-single-split",
-            "mono-independent-classic-packet-split"
+            "mono-uniform-independent-classic-single-split",
+            "mono-uniform-independent-classic-packet-split",
+            "mono-visible-independent-classic-single-split",
+            "mono-visible-independent-classic-packet-split"
         ]
     );
 }
@@ -367,10 +383,14 @@ fn classic_tracking_is_biased_in_the_fluorescent_slab() {
         ("hwss", &["independent", "constant"][..]),
         ("mono", &["independent"][..]),
     ] {
-        for shifting in shiftings {
-            for tracking in ["classic", "max", "fluo-aware"] {
-                for rays in ["single", "packet"] {
-                    want.push(format!("{spectral}-{shifting}-{tracking}-{rays}-split"));
+        for wavelengths in ["uniform", "visible"] {
+            for shifting in shiftings {
+                for tracking in ["classic", "max", "fluo-aware"] {
+                    for rays in ["single", "packet"] {
+                        want.push(format!(
+                            "{spectral}-{wavelengths}-{shifting}-{tracking}-{rays}-split"
+                        ));
+                    }
                 }
             }
         }
@@ -394,8 +414,16 @@ fn classic_tracking_is_biased_in_the_fluorescent_slab() {
     args.extend(res);
     ok(&args);
     let rows = read_csv(&out.join("convergence.csv"));
-    let classic = curve(&rows, "hwss-independent-classic-packet-split", "slab");
-    let aware = curve(&rows, "hwss-independent-fluo-aware-packet-split", "slab");
+    let classic = curve(
+        &rows,
+        "hwss-uniform-independent-classic-packet-split",
+        "slab",
+    );
+    let aware = curve(
+        &rows,
+        "hwss-uniform-independent-fluo-aware-packet-split",
+        "slab",
+    );
     let (kc, ka) = (slope(&classic), slope(&aware));
     assert!(
         kc > -0.2,
@@ -948,8 +976,8 @@ fn a_spectral_reference_adds_errors_in_spectral_radiance() {
     let csv = std::fs::read_to_string(job.out_dir.join("convergence.csv")).unwrap();
     let row = csv.lines().nth(1).unwrap();
     let cols: Vec<&str> = row.split(',').collect();
-    assert_eq!(cols.len(), 14, "{row}");
-    assert!(cols[12].parse::<f64>().unwrap() > 0.0, "{row}");
+    assert_eq!(cols.len(), 15, "{row}");
+    assert!(cols[13].parse::<f64>().unwrap() > 0.0, "{row}");
     assert!(report
         .summary
         .contains("the reference is spectral (8 bins over 400:720 nm)"));

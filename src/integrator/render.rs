@@ -496,6 +496,7 @@ fn pass<F: Width, const MEDIA: bool>(
 ) -> PathStats {
     let (scene, opts) = (job.scene, job.opts);
     let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
+    let wavelengths = job.path.method.wavelengths;
     film.row_groups(ROWS)
         .into_par_iter()
         .enumerate()
@@ -528,7 +529,10 @@ fn pass<F: Width, const MEDIA: bool>(
                             let slot = i * n as usize + k as usize;
                             let poison =
                                 poisoned(job.inject_nonfinite_every, pixels, pixel, s0 + k);
-                            let (lambda, l) = (lambdas[slot], results[slot]);
+                            let (lambda, mut l) = (lambdas[slot], results[slot]);
+                            if let Some(w) = wavelengths.film_weight(lambda) {
+                                l *= w;
+                            }
                             if let Some(c) = finish_sample(lambda, l, poison, &mut st) {
                                 sums.add(i, c, lambda, l);
                             }

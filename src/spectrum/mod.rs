@@ -37,7 +37,7 @@ pub use cie::{
 };
 pub use curve::{csv_column, parse_csv, read_csv, Tabulated};
 pub use desc::{Range, SpectrumDesc, SpectrumTable};
-pub use wavelengths::{hwss, mono, SampledWavelengths};
+pub use wavelengths::{hwss, mono, SampledWavelengths, Wavelengths, VISIBLE_FLOOR};
 
 /// Shortest wavelength the renderer samples (nm).
 pub const LAMBDA_MIN: f32 = 360.0;

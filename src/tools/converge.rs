@@ -24,7 +24,7 @@ use crate::error::Error;
 use crate::header::next_free_sample;
 use crate::integrator::render::{render_pass, Film, RenderOptions};
 use crate::medium::tracking::Tracking;
-use crate::method::{Dispersion, Method, Rays, Resolved, Shifting, Spectral};
+use crate::method::{Axis, Dispersion, Method, Rays, Resolved, Shifting, Spectral, Wavelengths};
 use crate::output::{check_outputs, read_exr, variance_path, write_atomically, Plane};
 use crate::scene::Scene;
 use crate::spectral_exr::Bins;
@@ -35,20 +35,22 @@ use std::time::Instant;
 
 /// The long help of `stokes converge`: method names, the default list and the outputs.
 pub const HELP: &str = "\
-Methods: a method is one value on each of five axes, joined by `-` in this order:
+Methods: a method is one value on each of six axes, joined by `-` in this order:
   spectral     hwss | mono
+  wavelengths  uniform | visible
   shifting     independent | constant
   tracking     classic | max | fluo-aware
   rays         packet | packet8 | lockstep | single
   dispersion   split | drop
-for example hwss-independent-fluo-aware-packet-drop (the name the outputs use). In
---methods a name may list the values in any order and leave axes out: those take the
-method flags' values (--spectral, --shifting, --tracking, --rays, --dispersion), whose
-defaults are hwss, independent, the scene's default tracking, packet, split. Example:
+for example hwss-visible-independent-fluo-aware-packet-drop (the name the outputs use).
+In --methods a name may list the values in any order and leave axes out: those take the
+method flags' values (--spectral, --wavelengths, --shifting, --tracking, --rays,
+--dispersion), whose defaults are hwss, uniform, independent, the scene's default
+tracking, packet, split. Example:
   --methods hwss-packet,mono-packet,hwss-constant-max
 
-Without --methods: every combination the scene makes meaningful. Spectral and rays
-(single and packet) always vary; shifting only where something fluoresces, tracking only where there are
+Without --methods: every combination the scene makes meaningful. Spectral, wavelengths
+and rays (single and packet) always vary; shifting only where something fluoresces, tracking only where there are
 media, dispersion only where a dielectric is dispersive; mono takes one shifting and one
 dispersion value (they act on the secondary wavelengths). A method flag given on the
 command line fixes its axis (--spectral mono: only mono methods).
@@ -63,7 +65,7 @@ A spectral reference (rendered with --spectral-bins) makes every method render i
 too, and the same two are measured over pixels and bins in spectral radiance.
 
 Outputs in --out DIR:
-  convergence.csv   method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,
+  convergence.csv   method,spectral,wavelengths,shifting,tracking,rays,dispersion,pass,spp,seconds,
                     region,rmse,relmse,spectral_rmse,spectral_relmse (one row per
                     checkpoint and region; region `image` is the whole image; the
                     spectral columns are empty against an RGB reference)
@@ -84,7 +86,7 @@ pub const FILES: [&str; 5] = [
 
 /// The columns of `convergence.csv`.
 pub const CSV_HEADER: &str =
-    "method,spectral,shifting,tracking,rays,dispersion,pass,spp,seconds,region,rmse,relmse,spectral_rmse,spectral_relmse";
+    "method,spectral,wavelengths,shifting,tracking,rays,dispersion,pass,spp,seconds,region,rmse,relmse,spectral_rmse,spectral_relmse";
 
 /// `base` rendering `method`.
 pub fn options_for(method: &Resolved, base: &RenderOptions) -> RenderOptions {
@@ -99,6 +101,8 @@ pub fn options_for(method: &Resolved, base: &RenderOptions) -> RenderOptions {
 pub struct MethodSpace {
     /// Spectral sampling.
     pub spectral: Vec<Spectral>,
+    /// The hero wavelength's pdf.
+    pub wavelengths: Vec<Wavelengths>,
     /// Shifting (HWSS only: mono takes the first).
     pub shifting: Vec<Shifting>,
     /// Tracking.
@@ -117,6 +121,7 @@ impl MethodSpace {
         let fluorescent = scene.has_fluorescence() || scene.has_fluorescent_media();
         MethodSpace {
             spectral: vec![Spectral::Hwss, Spectral::Mono],
+            wavelengths: Wavelengths::VALUES.to_vec(),
             shifting: if fluorescent {
                 vec![Shifting::Independent, Shifting::Constant]
             } else {
@@ -140,6 +145,7 @@ impl MethodSpace {
     pub fn fix(&mut self, axis: &str, value: &Resolved) {
         match axis {
             "spectral" => self.spectral = vec![value.spectral],
+            "wavelengths" => self.wavelengths = vec![value.wavelengths],
             "shifting" => self.shifting = vec![value.shifting],
             "tracking" => self.tracking = vec![value.tracking],
             "rays" => self.rays = vec![value.rays],
@@ -165,17 +171,20 @@ impl MethodSpace {
             } else {
                 &self.dispersion[..]
             };
-            for &shifting in shifting {
-                for &tracking in &self.tracking {
-                    for &dispersion in dispersion {
-                        for &rays in &self.rays {
-                            out.push(Method {
-                                spectral,
-                                shifting,
-                                tracking,
-                                rays,
-                                dispersion,
-                            });
+            for &wavelengths in &self.wavelengths {
+                for &shifting in shifting {
+                    for &tracking in &self.tracking {
+                        for &dispersion in dispersion {
+                            for &rays in &self.rays {
+                                out.push(Method {
+                                    spectral,
+                                    wavelengths,
+                                    shifting,
+                                    tracking,
+                                    rays,
+                                    dispersion,
+                                });
+                            }
                         }
                     }
                 }
@@ -188,14 +197,14 @@ impl MethodSpace {
 /// Names for a legend: the values of the axes on which `methods` differ (the full name
 /// where they all agree).
 pub fn short_names(methods: &[Resolved]) -> Vec<String> {
-    let parts: Vec<[&str; 5]> = methods.iter().map(Resolved::parts).collect();
-    let varies: Vec<bool> = (0..5)
+    let parts: Vec<[&str; 6]> = methods.iter().map(Resolved::parts).collect();
+    let varies: Vec<bool> = (0..6)
         .map(|k| parts.iter().any(|p| p[k] != parts[0][k]))
         .collect();
     parts
         .iter()
         .map(|p| {
-            let kept: Vec<&str> = (0..5).filter(|&k| varies[k]).map(|k| p[k]).collect();
+            let kept: Vec<&str> = (0..6).filter(|&k| varies[k]).map(|k| p[k]).collect();
             if kept.is_empty() {
                 p.join("-")
             } else {
@@ -713,7 +722,7 @@ pub fn csv(runs: &[Run], regions: &[MeasuredRegion]) -> String {
     out.push('\n');
     for run in runs {
         let m = &run.method;
-        let [spectral, shifting, tracking, rays, dispersion] = m.parts();
+        let [spectral, wavelengths, shifting, tracking, rays, dispersion] = m.parts();
         for c in &run.checkpoints {
             for (r, e) in regions.iter().zip(&c.errors) {
                 let (s_rmse, s_relmse) = e
@@ -722,7 +731,7 @@ pub fn csv(runs: &[Run], regions: &[MeasuredRegion]) -> String {
                     .unwrap_or_default();
                 let _ = writeln!(
                     out,
-                    "{m},{spectral},{shifting},{tracking},{rays},{dispersion},{},{},{:.6},{},{:.6e},{:.6e},{s_rmse},{s_relmse}",
+                    "{m},{spectral},{wavelengths},{shifting},{tracking},{rays},{dispersion},{},{},{:.6},{},{:.6e},{:.6e},{s_rmse},{s_relmse}",
                     c.pass,
                     c.spp,
                     c.seconds,
@@ -896,13 +905,14 @@ mod tests {
     fn method_space_skips_what_mono_lacks() {
         let space = MethodSpace {
             spectral: vec![Spectral::Hwss, Spectral::Mono],
+            wavelengths: Wavelengths::VALUES.to_vec(),
             shifting: vec![Shifting::Independent, Shifting::Constant],
             tracking: vec![Tracking::Classic, Tracking::Max, Tracking::FluoAware],
             rays: vec![Rays::Single, Rays::Packet],
             dispersion: vec![Dispersion::Drop],
         };
         let ms = space.methods();
-        assert_eq!(ms.len(), (2 + 1) * 3 * 2);
+        assert_eq!(ms.len(), 2 * (2 + 1) * 3 * 2);
         let names: std::collections::BTreeSet<String> = ms.iter().map(|m| m.to_string()).collect();
         assert_eq!(names.len(), ms.len());
         assert!(ms

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use stokes::error::{Error, Key};
 use stokes::integrator::render::RenderOptions;
 use stokes::medium::tracking::Tracking;
-use stokes::method::{Axis, Dispersion, Layout, Method, Rays, Shifting, Spectral};
+use stokes::method::{Axis, Dispersion, Layout, Method, Rays, Shifting, Spectral, Wavelengths};
 use stokes::scene::Scene;
 use stokes::spectral_exr::{self, Bins};
 use stokes::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
@@ -125,6 +125,9 @@ pub struct MethodArgs {
     /// Wavelength sampling: four hero-driven wavelengths per path, or one.
     #[arg(long, value_parser = axis::<Spectral>(), default_value_t = Spectral::default())]
     pub spectral: Spectral,
+    /// The hero wavelength's pdf: uniform over 360–830 nm, or by visible importance.
+    #[arg(long, value_parser = axis::<Wavelengths>(), default_value_t = Wavelengths::default())]
+    pub wavelengths: Wavelengths,
     /// How the four wavelengths move at a fluorescent vertex (HWSS).
     #[arg(long, value_parser = axis::<Shifting>(), default_value_t = Shifting::default())]
     pub shifting: Shifting,
@@ -160,6 +163,7 @@ impl MethodArgs {
         let (rays, dispersion) = (self.rays, self.dispersion);
         Method {
             spectral,
+            wavelengths: self.wavelengths,
             shifting,
             tracking,
             rays,
@@ -396,6 +400,9 @@ pub struct BenchRenderArgs {
     /// Wavelength sampling.
     #[arg(long, value_parser = axis::<Spectral>(), default_value_t = Spectral::default())]
     pub spectral: Spectral,
+    /// The hero wavelength's pdf.
+    #[arg(long, value_parser = axis::<Wavelengths>(), default_value_t = Wavelengths::default())]
+    pub wavelengths: Wavelengths,
     /// Dispersive refraction: drop or split.
     #[arg(long, value_parser = axis::<Dispersion>(), default_value_t = Dispersion::default())]
     pub dispersion: Dispersion,

@@ -45,6 +45,7 @@ fn cmd_bench_render(a: &BenchRenderArgs) -> Result<()> {
     scene.set_resolution(width, height);
     let method = Method {
         spectral: a.spectral,
+        wavelengths: a.wavelengths,
         dispersion: a.dispersion,
         ..Method::default()
     };

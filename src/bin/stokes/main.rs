@@ -429,7 +429,14 @@ fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<
         None => {
             // Every combination the scene makes meaningful, but for the axes fixed by a flag.
             let mut space = converge::MethodSpace::for_scene(&scene, &defaults);
-            for axis in ["spectral", "shifting", "tracking", "rays", "dispersion"] {
+            for axis in [
+                "spectral",
+                "wavelengths",
+                "shifting",
+                "tracking",
+                "rays",
+                "dispersion",
+            ] {
                 let given = matches.and_then(|m| m.value_source(axis));
                 if given == Some(clap::parser::ValueSource::CommandLine) {
                     space.fix(axis, &defaults);
