@@ -3,7 +3,7 @@
 # high-spp reference (cached) and `stokes converge` into docs/results/<scene>/
 # (convergence.csv, error-vs-time.svg/.png, error-vs-spp.svg/.png, summary.md).
 #
-#   benches/converge_all.sh [SCENE ...]     # names from scenes/, default: the six below
+#   benches/converge_all.sh [SCENE ...]     # names from scenes/, default: the seven below
 #
 # Settings (environment):
 #   RES=128          square image side for references and runs
@@ -37,11 +37,12 @@ declare -A SPP_AT_128=(
   [fluorescent-volume-440nm]=8192
   [fluorescent-slab]=16384
   [prism]=16384
+  [colorchecker]=8192
 )
 if [ $# -gt 0 ]; then
   SCENES=("$@")
 else
-  SCENES=(cornell-box fluorescent-surfaces fluorescent-surfaces-440nm fluorescent-volume-440nm fluorescent-slab prism)
+  SCENES=(cornell-box colorchecker fluorescent-surfaces fluorescent-surfaces-440nm fluorescent-volume-440nm fluorescent-slab prism)
 fi
 
 cargo build --release --quiet

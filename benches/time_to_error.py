@@ -9,6 +9,14 @@ budget). The region is the scene's first region of interest, else the whole imag
 Prints one Markdown table per scene.
 
     python3 benches/time_to_error.py docs/results/*/convergence.csv
+
+With `--pairs wavelengths=uniform:visible` (any axis column of the CSV, two of its values)
+it instead pairs every method with the one that differs only on that axis and prints how
+many times faster the second reaches the pair's own target, the larger of the two final
+relMSEs (so both reached it), interpolated as above; and the same ratio from the final
+checkpoints' efficiency 1/(relMSE x seconds), which uses all the samples.
+
+    python3 benches/time_to_error.py --pairs wavelengths=uniform:visible docs/results/*/convergence.csv
 """
 import csv, math, os, sys
 from collections import defaultdict
@@ -38,11 +46,53 @@ def time_to(pts, target):
     return None
 
 
-def main(paths):
+def region_of(rows):
+    regions = [r["region"] for r in rows if r["region"] != "image"]
+    return regions[0] if regions else "image"
+
+
+def pairs(paths, spec):
+    axis, values = spec.split("=")
+    a, b = values.split(":")
     for path in paths:
         rows = list(csv.DictReader(open(path)))
-        regions = [r["region"] for r in rows if r["region"] != "image"]
-        region = regions[0] if regions else "image"
+        if axis not in rows[0]:
+            sys.exit(f"{path}: no column {axis!r}")
+        region = region_of(rows)
+        curves = defaultdict(list)
+        keys = {}
+        for r in rows:
+            if r["region"] != region or r[axis] not in (a, b):
+                continue
+            key = tuple((k, v) for k, v in r.items() if k in AXES and k != axis)
+            curves[(key, r[axis])].append((int(r["spp"]), float(r["seconds"]), float(r["relmse"])))
+            keys[(key, r[axis])] = r["method"]
+        scene = os.path.basename(os.path.dirname(path))
+        print(f"\n**{scene}** (region `{region}`): {b} against {a}\n")
+        print(f"| method ({axis} {a} → {b}) | target relMSE | {a} (s) | {b} (s) | speed-up | efficiency ratio |")
+        print("| --- | --- | --- | --- | --- | --- |")
+        for (key, v), ca in curves.items():
+            if v != a or (key, b) not in curves:
+                continue
+            cb = curves[(key, b)]
+            target = max(ca[-1][2], cb[-1][2])
+            ta, tb = time_to(ca, target), time_to(cb, target)
+            eff = (ca[-1][2] * ca[-1][1]) / (cb[-1][2] * cb[-1][1])
+            name = keys[(key, a)].replace(f"-{a}-", f"-{a}|{b}-")
+            fmt = lambda t: "never" if t is None else f"{t:.2f}"
+            ratio = f"{ta / tb:.2f}x" if ta and tb else "—"
+            print(f"| {name} | {target:.3g} | {fmt(ta)} | {fmt(tb)} | {ratio} | {eff:.2f}x |")
+
+
+AXES = ("spectral", "wavelengths", "shifting", "tracking", "rays", "dispersion")
+
+
+def main(paths):
+    if paths and paths[0] == "--pairs":
+        return pairs(paths[2:], paths[1])
+    for path in paths:
+        rows = list(csv.DictReader(open(path)))
+        region = region_of(rows)
         curves = defaultdict(list)
         for r in rows:
             if r["region"] == region:

@@ -526,6 +526,36 @@ mod tests {
     }
 
     #[test]
+    fn wavelengths_are_read_and_absent_means_uniform() {
+        let h = header();
+        assert_eq!(h.method.wavelengths, Wavelengths::Visible, "the default");
+        let mut attrs: BTreeMap<String, String> = h.attributes().into_iter().collect();
+        assert_eq!(attrs["wavelengths"], "visible");
+        let back = RenderHeader::from_attributes(Path::new("x.exr"), &attrs).unwrap();
+        assert_eq!(back.method.wavelengths, Wavelengths::Visible);
+        // Written before the axis existed: every such render sampled uniformly.
+        attrs.remove("wavelengths");
+        let old = RenderHeader::from_attributes(Path::new("x.exr"), &attrs).unwrap();
+        assert_eq!(old.method.wavelengths, Wavelengths::Uniform);
+        assert_eq!(
+            old.mismatch(&h),
+            Some(Mismatch {
+                key: "wavelengths",
+                ours: "uniform".into(),
+                theirs: "visible".into()
+            })
+        );
+        attrs.insert("wavelengths".into(), "eye".into());
+        let e = RenderHeader::from_attributes(Path::new("x.exr"), &attrs)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "x.exr: stokes:wavelengths: expected one of visible, uniform, found \"eye\""
+        );
+    }
+
+    #[test]
     fn mismatch_names_the_first_differing_setting() {
         let a = header();
         assert_eq!(a.mismatch(&a.clone()), None);

@@ -3,7 +3,7 @@
 //! | axis | values (default first) | what it chooses |
 //! | --- | --- | --- |
 //! | spectral | `hwss`, `mono` | four hero-driven wavelengths per path, or one |
-//! | wavelengths | `uniform`, `visible` | the hero's pdf: uniform, or by visible importance |
+//! | wavelengths | `visible`, `uniform` | the hero's pdf: by visible importance, or uniform |
 //! | shifting | `independent`, `constant` | how the four lanes move at a fluorescent vertex |
 //! | tracking | the scene's default, `classic`, `max`, `fluo-aware` | distance sampling in media |
 //! | rays | `packet`, `packet8`, `lockstep`, `single` | how paths meet Embree |
@@ -103,8 +103,8 @@ axis!(Spectral, "spectral", [
 ]);
 
 axis!(Wavelengths, "wavelengths", [
+    Wavelengths::Visible => "visible": "the hero by visible importance (linear-sRGB CMFs with a floor), the lanes a quarter of its CDF apart",
     Wavelengths::Uniform => "uniform": "the hero uniform over 360-830 nm, the lanes a quarter of the range apart",
-    Wavelengths::Visible => "visible": "the hero by visible importance (x+y+z CMFs with a floor), the lanes a quarter of its CDF apart",
 ]);
 
 /// How the four lanes of a path move at a fluorescent vertex (HWSS only).
@@ -208,7 +208,7 @@ pub struct Method<T = Option<Tracking>> {
 }
 
 impl Default for Method {
-    /// What `stokes render` does without flags: `hwss-uniform-independent-packet-split` with the
+    /// What `stokes render` does without flags: `hwss-visible-independent-packet-split` with the
     /// scene's default tracking.
     fn default() -> Method {
         Method {
@@ -344,7 +344,7 @@ impl<T: Copy + From<Tracking>> Method<T> {
 }
 
 /// The name: the values joined by `-` in axis order, the tracking left out where the
-/// scene chooses it (`hwss-uniform-independent-packet-split`).
+/// scene chooses it (`hwss-visible-independent-packet-split`).
 impl fmt::Display for Method {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = self.with_tracking(Tracking::Classic);
@@ -362,7 +362,7 @@ impl fmt::Display for Method {
 /// Where the tracking stands in [`Resolved::parts`].
 const TRACKING: usize = 3;
 
-/// The full name, `hwss-uniform-independent-fluo-aware-packet-split`.
+/// The full name, `hwss-visible-independent-fluo-aware-packet-split`.
 impl fmt::Display for Resolved {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.parts().join("-"))
@@ -484,13 +484,13 @@ mod tests {
     #[test]
     fn the_default_is_what_render_does_without_flags() {
         let m = Method::default();
-        assert_eq!(m.to_string(), "hwss-uniform-independent-packet-split");
+        assert_eq!(m.to_string(), "hwss-visible-independent-packet-split");
         assert_eq!(m.tracking, None);
         assert!("".parse::<Method>().is_err());
         let fixed: Method = "mono-max".parse().unwrap();
         assert_eq!(
             fixed.to_string(),
-            "mono-uniform-independent-max-packet-split"
+            "mono-visible-independent-max-packet-split"
         );
     }
 
@@ -506,17 +506,17 @@ mod tests {
         assert_eq!(m.rays, Rays::Packet);
         assert_eq!(
             m.to_string(),
-            "hwss-uniform-independent-fluo-aware-packet-drop"
+            "hwss-visible-independent-fluo-aware-packet-drop"
         );
         assert_eq!(Method::parse_with(&m.to_string(), &base).unwrap(), m);
         let open: Method = m.to_string().parse().unwrap();
         assert_eq!(open.tracking, Some(Tracking::FluoAware));
         assert_eq!(open.with_tracking(Tracking::FluoAware), m);
-        let n = Method::parse_with("packet-fluo-aware-split-mono-visible", &base).unwrap();
-        assert_eq!(n.wavelengths, Wavelengths::Visible);
+        let n = Method::parse_with("packet-fluo-aware-split-mono-uniform", &base).unwrap();
+        assert_eq!(n.wavelengths, Wavelengths::Uniform);
         assert_eq!(
             n.to_string(),
-            "mono-visible-independent-fluo-aware-packet-split"
+            "mono-uniform-independent-fluo-aware-packet-split"
         );
         assert_eq!(
             Method::parse_with("max", &base).unwrap().tracking,

@@ -1,11 +1,11 @@
 //! The ColorChecker under D65: each rendered patch has the colour computed directly from
-//! its reflectance spectrum (ΔE2000 ≤ 1), in both spectral modes.
+//! its reflectance spectrum (ΔE2000 ≤ 1), in both spectral modes and with both hero pdfs.
 
 mod common;
 use common::*;
 use glam::Vec3;
 use stokes::color::{delta_e_2000, linear_srgb_to_xyz, xyz_to_lab};
-use stokes::method::Spectral;
+use stokes::method::{Spectral, Wavelengths};
 use stokes::spectrum::{csv_column, illuminant, reflectance_to_xyz, spectrum_to_xyz, Spectrum};
 
 const W: u32 = 150;
@@ -45,14 +45,22 @@ fn rendered_patches_match_their_spectra_under_d65() {
     let d65 = Spectrum::Scaled(Box::new(illuminant("D65").unwrap()), 0.01);
     let white = spectrum_to_xyz(&d65);
     // Mono needs far more samples than HWSS for the same colour noise (that is the point
-    // of HWSS); both counts bring the noise well below ΔE 1 on the light neutrals.
-    for (spectral, spp) in [(Spectral::Hwss, 256), (Spectral::Mono, 2048)] {
+    // of HWSS); both counts bring the noise well below ΔE 1 on the light neutrals. Visible
+    // wavelengths have less colour noise (the worst ΔE falls 3-5× with HWSS).
+    for (spectral, wavelengths, spp) in [
+        (Spectral::Hwss, Wavelengths::Uniform, 256),
+        (Spectral::Mono, Wavelengths::Uniform, 2048),
+        (Spectral::Hwss, Wavelengths::Visible, 256),
+        (Spectral::Mono, Wavelengths::Visible, 2048),
+    ] {
         let mut scene = scene_file("colorchecker.toml");
         let film = TestRender::at(W, H)
             .spp(spp)
             .seed(11)
             .spectral(spectral)
+            .wavelengths(wavelengths)
             .film(&mut scene);
+        let spectral = format!("{spectral:?} {wavelengths:?}");
         let mut worst = (0.0f32, String::new());
         for (i, name) in names.iter().enumerate() {
             let px = patch_pixels(i);
@@ -67,10 +75,10 @@ fn rendered_patches_match_their_spectra_under_d65() {
             }
             assert!(
                 de <= 1.0,
-                "{spectral:?}: patch {i} ({name}): ΔE2000 = {de:.3}"
+                "{spectral}: patch {i} ({name}): ΔE2000 = {de:.3}"
             );
         }
-        eprintln!("{spectral:?}: worst ΔE2000 = {:.3} ({})", worst.0, worst.1);
+        eprintln!("{spectral}: worst ΔE2000 = {:.3} ({})", worst.0, worst.1);
     }
 }
 

@@ -181,14 +181,14 @@ fn furnace_error_falls_as_one_over_root_spp() {
     let rows = read_csv(&out.join("convergence.csv"));
     // No fluorescence, media or dispersion: spectral × wavelengths × rays only.
     let expect = [
-        "hwss-uniform-independent-classic-single-split",
-        "hwss-uniform-independent-classic-packet-split",
         "hwss-visible-independent-classic-single-split",
         "hwss-visible-independent-classic-packet-split",
-        "mono-uniform-independent-classic-single-split",
-        "mono-uniform-independent-classic-packet-split",
+        "hwss-uniform-independent-classic-single-split",
+        "hwss-uniform-independent-classic-packet-split",
         "mono-visible-independent-classic-single-split",
         "mono-visible-independent-classic-packet-split",
+        "mono-uniform-independent-classic-single-split",
+        "mono-uniform-independent-classic-packet-split",
     ];
     assert_eq!(methods(&rows), expect);
     let checkpoints: Vec<u32> = (0..=8).map(|k| 1 << k).collect();
@@ -304,13 +304,13 @@ fn furnace_error_falls_as_one_over_root_spp() {
     assert_eq!(
         methods(&rows3),
         [
-            "mono-uniform-independent-classic-packet-split",
-            "hwss-uniform-independent-classic-packet-split"
+            "mono-visible-independent-classic-packet-split",
+            "hwss-visible-independent-classic-packet-split"
         ]
     );
     let spps: Vec<u32> = curve(
         &rows3,
-        "hwss-uniform-independent-classic-packet-split",
+        "hwss-visible-independent-classic-packet-split",
         "image",
     )
     .iter()
@@ -335,10 +335,10 @@ fn furnace_error_falls_as_one_over_root_spp() {
     assert_eq!(
         methods(&read_csv(&out4.join("convergence.csv"))),
         [
-            "mono-uniform-independent-classic-single-split",
-            "mono-uniform-independent-classic-packet-split",
             "mono-visible-independent-classic-single-split",
-            "mono-visible-independent-classic-packet-split"
+            "mono-visible-independent-classic-packet-split",
+            "mono-uniform-independent-classic-single-split",
+            "mono-uniform-independent-classic-packet-split"
         ]
     );
 }
@@ -383,7 +383,7 @@ fn classic_tracking_is_biased_in_the_fluorescent_slab() {
         ("hwss", &["independent", "constant"][..]),
         ("mono", &["independent"][..]),
     ] {
-        for wavelengths in ["uniform", "visible"] {
+        for wavelengths in ["visible", "uniform"] {
             for shifting in shiftings {
                 for tracking in ["classic", "max", "fluo-aware"] {
                     for rays in ["single", "packet"] {
@@ -416,12 +416,12 @@ fn classic_tracking_is_biased_in_the_fluorescent_slab() {
     let rows = read_csv(&out.join("convergence.csv"));
     let classic = curve(
         &rows,
-        "hwss-uniform-independent-classic-packet-split",
+        "hwss-visible-independent-classic-packet-split",
         "slab",
     );
     let aware = curve(
         &rows,
-        "hwss-uniform-independent-fluo-aware-packet-split",
+        "hwss-visible-independent-fluo-aware-packet-split",
         "slab",
     );
     let (kc, ka) = (slope(&classic), slope(&aware));

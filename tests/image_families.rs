@@ -1,8 +1,8 @@
 //! Image tests of every scene family through the OpenImageIO check
 //! (`tests/common/oiio.rs`): renders that must agree — two seeds, and two estimators that
-//! must have the same expectation (HWSS and mono, independent and constant shifting,
-//! fluorescence-aware and maximum tracking, packets and single rays, split and dropped
-//! dispersion) — pass, and negative controls must fail: a render shifted by 3 standard
+//! must have the same expectation (HWSS and mono, uniform and visible-importance
+//! wavelengths, independent and constant shifting, fluorescence-aware and maximum
+//! tracking, packets and single rays, split and dropped dispersion) — pass, and negative controls must fail: a render shifted by 3 standard
 //! errors per pixel (per-pixel criterion), and a physically wrong render (an edited
 //! scene, or classic tracking where it is biased).
 //!
@@ -23,7 +23,7 @@ use common::oiio::{shifted_copy, Exr, ImageCheck, Report};
 use common::*;
 use std::path::Path;
 use stokes::medium::Tracking;
-use stokes::method::{Dispersion, Rays, Shifting, Spectral};
+use stokes::method::{Dispersion, Rays, Shifting, Spectral, Wavelengths};
 use stokes::scene::Scene;
 
 /// Image side in pixels.
@@ -48,6 +48,18 @@ enum Variant {
     Rays(Rays),
     /// Dispersive refraction: keep the hero only, or split the path.
     Dispersion(Dispersion),
+    /// The other hero pdf than the default (uniform or visible importance).
+    OtherWavelengths,
+    /// The other hero pdf, and the secondary lanes dropped at a dispersive refraction.
+    OtherWavelengthsDrop,
+}
+
+/// The hero pdf that the default method does not use.
+fn other_wavelengths() -> Wavelengths {
+    match Wavelengths::default() {
+        Wavelengths::Uniform => Wavelengths::Visible,
+        Wavelengths::Visible => Wavelengths::Uniform,
+    }
 }
 
 /// A render that must NOT agree with the family's default render.
@@ -84,6 +96,11 @@ fn options(variant: Variant, spp: u32, seed: u64) -> TestRender {
         Variant::Tracking(t) => m.tracking = Some(t),
         Variant::Rays(r) => m.rays = r,
         Variant::Dispersion(d) => m.dispersion = d,
+        Variant::OtherWavelengths => m.wavelengths = other_wavelengths(),
+        Variant::OtherWavelengthsDrop => {
+            m.wavelengths = other_wavelengths();
+            m.dispersion = Dispersion::Drop;
+        }
     }
     o
 }
@@ -277,22 +294,22 @@ const CLASSIC: Wrong = Wrong::Variant(
 );
 
 families! {
-    cornell_box => Family { scene: "cornell-box", spp: 128, agree: &[Mono, Rays(Rays::Single)],
+    cornell_box => Family { scene: "cornell-box", spp: 128, agree: &[Mono, Rays(Rays::Single), OtherWavelengths],
         wrong: &[Wrong::Edit(&[("scale = 1.0 }", "scale = 1.1 }")], "light 10 % too bright")] };
-    colorchecker => Family { scene: "colorchecker", spp: 32, agree: &[Mono],
+    colorchecker => Family { scene: "colorchecker", spp: 32, agree: &[Mono, OtherWavelengths],
         wrong: &[Wrong::Edit(&[("column = \"red\" }", "column = \"orange\" }")], "the red patch with orange's reflectance")] };
-    fluorescent_surfaces_d65 => Family { scene: "fluorescent-surfaces", spp: 64, agree: &[Mono, Constant],
+    fluorescent_surfaces_d65 => Family { scene: "fluorescent-surfaces", spp: 64, agree: &[Mono, Constant, OtherWavelengths],
         wrong: &[Wrong::Edit(NO_REEMISSION, "the dyes re-emit nothing")] };
-    fluorescent_surfaces_440nm => Family { scene: "fluorescent-surfaces-440nm", spp: 128, agree: &[Mono, Constant],
+    fluorescent_surfaces_440nm => Family { scene: "fluorescent-surfaces-440nm", spp: 128, agree: &[Mono, Constant, OtherWavelengths],
         wrong: &[Wrong::Edit(NO_REEMISSION, "the dyes re-emit nothing")] };
-    fluorescent_volume_440nm => Family { scene: "fluorescent-volume-440nm", spp: 64, agree: &[Tracking(Tracking::Max), Constant, Mono, Rays(Rays::Single)],
+    fluorescent_volume_440nm => Family { scene: "fluorescent-volume-440nm", spp: 64, agree: &[Tracking(Tracking::Max), Constant, Mono, Rays(Rays::Single), OtherWavelengths],
         wrong: &[Wrong::Edit(&[("quantum_yield = 0.9 }", "quantum_yield = 0.0 }")], "the dye re-emits nothing")] };
     fluorescent_slab => Family { scene: "fluorescent-slab", spp: 256, agree: &[Tracking(Tracking::Max), Mono], wrong: &[CLASSIC] };
     // The prism's spectrum is a caustic found only by BSDF sampling: at this budget the
     // image mean has a 15 % standard error, and neither a prism without dispersion nor a
     // screen 25 % darker is detected (measured; a lamp twice as bright gives z ≈ 7); the
     // family catches gross errors only.
-    prism => Family { scene: "prism", spp: 1024, agree: &[Dispersion(Dispersion::Drop), Rays(Rays::Single)],
+    prism => Family { scene: "prism", spp: 1024, agree: &[Dispersion(Dispersion::Drop), Rays(Rays::Single), OtherWavelengths, OtherWavelengthsDrop],
         wrong: &[Wrong::Edit(&[("radiance = 200 }", "radiance = 600 }")], "the lamp 3× as bright")] };
     fluorescent_slab_backlit => Family { scene: "fluorescent-slab-backlit", spp: 256, agree: &[Tracking(Tracking::Max), Constant], wrong: &[CLASSIC] };
 }

@@ -22,7 +22,7 @@ use stokes::method::{Axis, Dispersion, Layout, Method, Rays};
 use stokes::sampler::{LazyStream, Pcg32};
 use stokes::scene::Scene;
 use stokes::simd::{F4, F8};
-use stokes::spectrum::SampledWavelengths;
+use stokes::spectrum::{SampledWavelengths, Wavelengths};
 
 fn opts(w: u32, h: u32, spp: u32, rays: Rays, dispersion: Dispersion) -> TestRender {
     TestRender::at(w, h)
@@ -163,7 +163,7 @@ fn sample_inputs(scene: &Scene, i: u64) -> (stokes::accel::Ray, Vec4, Pcg32, Laz
     let mut rng = Pcg32::for_sample(SEED, i, 0);
     let [jx, jy] = rng.next_2d();
     let ray = scene.camera.ray(x as f32 + jx, y as f32 + jy);
-    let lambda = SampledWavelengths::sample_hwss(rng.next_f32()).lambda;
+    let lambda = SampledWavelengths::hwss_with(Wavelengths::default(), rng.next_f32()).lambda;
     (ray, lambda, rng, LazyStream::new(SEED, i, 0))
 }
 

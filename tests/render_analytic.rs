@@ -4,7 +4,7 @@
 mod common;
 use common::*;
 use stokes::color::xyz_to_linear_srgb;
-use stokes::method::Spectral;
+use stokes::method::{Spectral, Wavelengths};
 use stokes::spectrum::{reflectance_to_xyz, spectrum_to_xyz, Spectrum};
 
 /// A diffuse sphere of the given reflectance inside a black box whose walls emit
@@ -22,26 +22,33 @@ fn enclosure_scene(reflectance: &str, radiance: &str) -> String {
 fn white_furnace_returns_the_emitted_radiance() {
     let expected = xyz_to_linear_srgb(spectrum_to_xyz(&Spectrum::Constant(1.0)));
     // Mono pays for its wavelength noise with more samples: enough that the standard
-    // error is well under the 0.5 % tolerance in both modes.
-    for (spectral, spp) in [(Spectral::Hwss, 4096), (Spectral::Mono, 40000)] {
+    // error is well under the 0.5 % tolerance in every mode.
+    for (spectral, wavelengths, spp) in [
+        (Spectral::Hwss, Wavelengths::Uniform, 4096),
+        (Spectral::Mono, Wavelengths::Uniform, 40000),
+        (Spectral::Hwss, Wavelengths::Visible, 4096),
+        (Spectral::Mono, Wavelengths::Visible, 16384),
+    ] {
         let mut scene = scene_from(&enclosure_scene("1.0", "1.0"));
         let film = TestRender::at(16, 16)
             .spp(spp)
             .seed(1)
             .spectral(spectral)
+            .wavelengths(wavelengths)
             .film(&mut scene);
         let (m, se) = region_mean(&film, &all_pixels(&film));
-        eprintln!("{spectral:?}: mean {m:?} se {se:?}, expected {expected}");
+        let spectral = format!("{spectral:?} {wavelengths:?}");
+        eprintln!("{spectral}: mean {m:?} se {se:?}, expected {expected}");
         for c in 0..3 {
             assert!(
                 se[c] < 0.0012 * expected[c] as f64,
-                "{spectral:?}: too few samples for the test to decide (se {})",
+                "{spectral}: too few samples for the test to decide (se {})",
                 se[c]
             );
             let rel = (m[c] - expected[c] as f64).abs() / expected[c] as f64;
             assert!(
                 rel < 0.005,
-                "{spectral:?} channel {c}: {} vs {} (rel. error {rel:.4}, se {:.2e})",
+                "{spectral} channel {c}: {} vs {} (rel. error {rel:.4}, se {:.2e})",
                 m[c],
                 expected[c],
                 se[c]

@@ -45,7 +45,7 @@ Methods: a method is one value on each of six axes, joined by `-` in this order:
 for example hwss-visible-independent-fluo-aware-packet-drop (the name the outputs use).
 In --methods a name may list the values in any order and leave axes out: those take the
 method flags' values (--spectral, --wavelengths, --shifting, --tracking, --rays,
---dispersion), whose defaults are hwss, uniform, independent, the scene's default
+--dispersion), whose defaults are hwss, visible, independent, the scene's default
 tracking, packet, split. Example:
   --methods hwss-packet,mono-packet,hwss-constant-max
 

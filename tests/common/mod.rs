@@ -99,6 +99,13 @@ impl TestRender {
         self
     }
 
+    /// The hero wavelength's pdf.
+    #[allow(dead_code)]
+    pub fn wavelengths(mut self, wavelengths: stokes::method::Wavelengths) -> Self {
+        self.opts.method.wavelengths = wavelengths;
+        self
+    }
+
     /// Ray mode.
     pub fn rays(mut self, rays: Rays) -> Self {
         self.opts.method.rays = rays;
