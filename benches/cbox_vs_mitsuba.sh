@@ -61,8 +61,12 @@ else
     echo "(stokes converge has no --compare option: its charts show stokes only)"
 fi
 echo "== stokes converge, $BUDGET s per method"
-"$STOKES" converge "$SCENE" --reference "$REF" --res "${RES}x${RES}" --budget "$BUDGET" \
-    --threads "$THREADS" --out "$OUT/stokes" "${compare[@]}" | tee "$OUT/stokes-summary.txt"
+# /usr/bin/time: the CPU time converge had (user + sys near THREADS x wall if it had
+# the cores; it includes the warm-up pass and the error computations)
+timer=()
+if [ -x /usr/bin/time ]; then timer=(/usr/bin/time -f "converge: %e s wall, %U s user, %S s sys"); fi
+"${timer[@]}" "$STOKES" converge "$SCENE" --reference "$REF" --res "${RES}x${RES}" --budget "$BUDGET" \
+    --threads "$THREADS" --out "$OUT/stokes" "${compare[@]}" 2>&1 | tee "$OUT/stokes-summary.txt"
 echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 
 echo "== stokes against Mitsuba 3 (relMSE over the whole image, linear sRGB)"
