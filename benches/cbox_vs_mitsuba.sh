@@ -55,7 +55,9 @@ echo "== Mitsuba 3 ($VARIANTS), renders adding up to $MITSUBA_BUDGET s per varia
     --out "$OUT/mitsuba.csv" | tee "$OUT/mitsuba.txt"
 
 compare=()
-if "$STOKES" converge --help | grep -q -- '--compare'; then
+# (the help captured first: under pipefail, grep -q closing the pipe early could fail it)
+converge_help=$("$STOKES" converge --help)
+if grep -q -- '--compare' <<<"$converge_help"; then
     compare=(--compare "$OUT/mitsuba.csv")
 else
     echo "(stokes converge has no --compare option: its charts show stokes only)"
