@@ -188,6 +188,13 @@ fn furnace_error_falls_as_one_over_root_spp() {
     ];
     assert_eq!(methods(&rows), expect);
     let checkpoints: Vec<u32> = (0..=8).map(|k| 1 << k).collect();
+    let r_of = |m: &str| {
+        if m.contains("packet") {
+            "packet"
+        } else {
+            "single"
+        }
+    };
     for m in expect {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.method == m).collect();
         assert_eq!(mine.len(), checkpoints.len() * 2, "{m}");
@@ -230,8 +237,14 @@ fn furnace_error_falls_as_one_over_root_spp() {
             (-0.6..=-0.4).contains(&k),
             "{m}: log–log slope {k:.3} of RMSE against spp, expected −0.5 ± 0.1: {c:?}"
         );
-        assert!(stdout.contains(m), "summary lacks {m}: {stdout}");
+        // The summary names a method by the axes that vary (spectral and rays here).
+        let short = format!("| {}-{} |", axes[0], r_of(m));
+        assert!(stdout.contains(&short), "summary lacks {short}: {stdout}");
     }
+    assert!(
+        stdout.contains("has shifting independent, tracking classic, dispersion split"),
+        "the summary states the common values once: {stdout}"
+    );
     assert!(
         stdout.contains("region `sphere`") && stdout.contains("slope"),
         "{stdout}"
