@@ -192,6 +192,13 @@ fn furnace_error_falls_as_one_over_root_spp() {
     ];
     assert_eq!(methods(&rows), expect);
     let checkpoints: Vec<u32> = (0..=8).map(|k| 1 << k).collect();
+    let r_of = |m: &str| {
+        if m.contains("packet") {
+            "packet"
+        } else {
+            "single"
+        }
+    };
     for m in expect {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.method == m).collect();
         assert_eq!(mine.len(), checkpoints.len() * 2, "{m}");
@@ -240,7 +247,21 @@ fn furnace_error_falls_as_one_over_root_spp() {
             (-0.6..=-0.4).contains(&k),
             "{m}: log–log slope {k:.3} of RMSE against spp, expected −0.5 ± 0.1: {c:?}"
         );
-        assert!(stdout.contains(m), "summary lacks {m}: {stdout}");
+        // The summary names a method by the axes that vary (spectral, wavelengths and rays
+        // here).
+        let short = format!("| {}-{}-{} |", axes[0], wavelengths, r_of(m));
+        assert!(stdout.contains(&short), "summary lacks {short}: {stdout}");
+    }
+    let common = stdout
+        .lines()
+        .find(|l| l.starts_with("Every method of stokes here has "))
+        .unwrap_or_else(|| panic!("the summary states the common values once: {stdout}"));
+    for want in [
+        "shifting independent",
+        "tracking classic",
+        "dispersion split",
+    ] {
+        assert!(common.contains(want), "{want} not in {common}");
     }
     assert!(
         stdout.contains("region `sphere`") && stdout.contains("slope"),
@@ -1004,4 +1025,111 @@ fn a_spectral_reference_adds_errors_in_spectral_radiance() {
         .all(|c| c.errors[0].spectral.is_none()));
     let csv = std::fs::read_to_string(job.out_dir.join("convergence.csv")).unwrap();
     assert!(csv.lines().nth(1).unwrap().ends_with(",,"));
+}
+
+/// `--redraw DIR` draws the charts and prints the summary from a convergence.csv without
+/// rendering; `--compare FILE.csv` adds another renderer's line and an external row, and
+/// bad compare files are one-line errors naming the file (and the line).
+#[test]
+fn redraw_and_compare_from_csv_files() {
+    let dir = scratch("converge-redraw");
+    let runs = dir.join("volume");
+    std::fs::create_dir_all(&runs).unwrap();
+    let mut text = String::from("method,pass,spp,seconds,region,rmse,relmse\n");
+    for (m, speed) in [
+        ("hwss-independent-classic-packet-split", 1.0),
+        ("hwss-independent-classic-single-split", 1.3),
+        ("mono-independent-classic-packet-split", 0.7),
+    ] {
+        for k in 0..7 {
+            let spp = 1u32 << k;
+            let t = 0.01 * speed * spp as f64;
+            for (region, e) in [("image", 0.5), ("dye", 1.0)] {
+                let rmse = e / (spp as f64).sqrt();
+                text += &format!("{m},{spp},{spp},{t},{region},{rmse},{}\n", rmse * rmse);
+            }
+        }
+    }
+    std::fs::write(runs.join("convergence.csv"), text).unwrap();
+    let compare = dir.join("mitsuba.csv");
+    let mut text = String::from("method,variant,spp,seconds,region,rmse,relmse\r\n");
+    for k in 0..7 {
+        let spp = 1u32 << k;
+        let rmse = 0.8 / (spp as f64).sqrt();
+        let t = 0.002 * spp as f64;
+        text += &format!(
+            "mitsuba-llvm_ad_spectral,,{spp},{t},dye,{rmse},{}\r\n",
+            rmse * rmse
+        );
+    }
+    std::fs::write(&compare, text).unwrap();
+
+    let out = dir.join("charts");
+    let (stdout, _) = ok(&[
+        "converge",
+        "--redraw",
+        &s(&runs),
+        "--compare",
+        &s(&compare),
+        "--out",
+        &s(&out),
+    ]);
+    for f in &stokes::tools::converge::FILES[1..] {
+        let len = std::fs::metadata(out.join(f)).map_or(0, |m| m.len());
+        assert!(len > 1000, "{f}: {len} bytes");
+    }
+    assert!(
+        stdout.contains(&format!(
+            "| mitsuba-llvm_ad_spectral (external: {}) | 64 |",
+            compare.display()
+        )),
+        "{stdout}"
+    );
+    assert!(stdout.contains("region `dye`"), "{stdout}");
+    assert!(
+        stdout.contains("Fastest to the target: mitsuba-llvm_ad_spectral (external)"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("| hwss-packet |"), "{stdout}");
+    let svg = std::fs::read_to_string(out.join("error-vs-time.svg")).unwrap();
+    assert!(
+        svg.contains("fastest: mitsuba-llvm_ad_spectral (external)"),
+        "the time chart marks the fastest"
+    );
+    assert!(svg.contains("every stokes method: wavelengths visible, shifting independent"));
+
+    let missing = dir.join("nothing.csv");
+    let e = fails(&["converge", "--redraw", &s(&runs), "--compare", &s(&missing)]);
+    assert!(
+        e.contains(&format!("--compare {} cannot be read", missing.display())),
+        "{e}"
+    );
+    let bad = dir.join("bad.csv");
+    std::fs::write(
+        &bad,
+        "method,spp,seconds,region,rmse,relmse\nm,1,0.1,dye,0.5,0.25\nm,2,0.2,dye,n/a,0.1\n",
+    )
+    .unwrap();
+    let e = fails(&["converge", "--redraw", &s(&runs), "--compare", &s(&bad)]);
+    assert!(
+        e.contains(&format!(
+            "{}:3: expected a finite number in column `rmse`, found \"n/a\"",
+            bad.display()
+        )),
+        "{e}"
+    );
+    let other_region = dir.join("image-only.csv");
+    std::fs::write(
+        &other_region,
+        "method,spp,seconds,region,rmse,relmse\nm,1,0.1,image,0.5,0.25\n",
+    )
+    .unwrap();
+    let e = fails(&[
+        "converge",
+        "--redraw",
+        &s(&runs),
+        "--compare",
+        &s(&other_region),
+    ]);
+    assert!(e.contains("no rows of region `dye`"), "{e}");
 }

@@ -17,8 +17,24 @@
 //!
 //! **CSV** (`convergence.csv`): one row per checkpoint and region, with the columns
 //! [`CSV_HEADER`]; region `image` is the whole image.
+//!
+//! **Charts** ([`converge_chart`]): relMSE against seconds, with the summary's target
+//! (a dotted line) and the first method to reach it (a star), and RMSE against spp; the
+//! colour is the spectral method, the dash the tracking, the marker (time chart) the
+//! rays; methods that differ only in their rays are one line against spp (they trace the
+//! same samples). Names keep the axes that vary; the subtitle states the others.
+//!
+//! **Other renderers** (`--compare FILE.csv`, repeatable): a CSV in this format — the
+//! columns `method`, `spp`, `seconds`, `region`, `rmse`, `relmse` found by their header
+//! names, any others ignored and possibly empty — adds a black or grey line per distinct
+//! `method` to both charts and a row marked external to the summary, over the region the
+//! charts use (the file must have rows of it). A missing file or column, or a value that
+//! is not a number, is a one-line error naming the file and the line.
+//!
+//! **Redrawing** (`--redraw DIR`): the charts and the summary again from
+//! `DIR/convergence.csv`, without rendering ([`converge_chart::redraw`]).
 
-use super::chart::{self, LogLogChart, Series};
+use super::converge_chart::{self, Curve};
 use super::merge::{plane_names, Part};
 use crate::error::Error;
 use crate::header::next_free_sample;
@@ -69,11 +85,29 @@ Outputs in --out DIR:
                     region,rmse,relmse,spectral_rmse,spectral_relmse (one row per
                     checkpoint and region; region `image` is the whole image; the
                     spectral columns are empty against an RGB reference)
-  error-vs-time.svg/.png, error-vs-spp.svg/.png: log-log RMSE over the first region
-                    (else the image), one line per method, a dashed line of slope -1/2
+  error-vs-time.svg/.png: log-log relMSE against seconds over the first region (else
+                    the image), one line per method, a dashed line of slope -1, the
+                    target relMSE of the summary dotted and a star where the fastest
+                    method reaches it
+  error-vs-spp.svg/.png: log-log RMSE against spp, one line per group of methods that
+                    differ only in rays (they trace the same samples), slope -1/2
+                    In both: colour = spectral method (every axis but tracking and
+                    rays), dash = tracking, marker = rays (time chart); names keep only
+                    the axes that vary, the subtitle gives the values all share.
 and on stdout a table: per method, the fitted log-log slope of RMSE against spp (over
 checkpoints with spp >= 4; -0.5 for an unbiased method), the final errors and the
-seconds to reach the worst final relMSE of all methods.";
+seconds to reach the worst final relMSE of all methods, and the fastest to it.
+
+Another renderer (--compare FILE.csv, repeatable): a CSV in the convergence.csv format;
+the columns method, spp, seconds, region, rmse, relmse are found by their header names
+(others are ignored and may be empty). Each distinct method becomes a black or grey
+line on both charts and a summary row marked external; only its rows of the region the
+charts use count (the file must have some). Example:
+  stokes converge SCENE --reference REF.exr --compare mitsuba.csv --out DIR
+
+Redrawing (--redraw DIR): no rendering; the charts are drawn again from
+DIR/convergence.csv into DIR (or --out) and the summary printed, with --compare lines:
+  stokes converge --redraw docs/results/cornell-box --compare mitsuba.csv --out /tmp/c";
 
 /// The files `stokes converge` writes into its `--out` directory.
 pub const FILES: [&str; 5] = [
@@ -194,19 +228,21 @@ impl MethodSpace {
     }
 }
 
-/// Names for a legend: the values of the axes on which `methods` differ (the full name
-/// where they all agree).
+/// Names for legends and the summary: the values of the axes on which `methods` differ
+/// (the full name where they all agree); [`converge_chart::common_values`] states the
+/// others once.
 pub fn short_names(methods: &[Resolved]) -> Vec<String> {
-    let parts: Vec<[&str; 6]> = methods.iter().map(Resolved::parts).collect();
-    let varies: Vec<bool> = (0..6)
-        .map(|k| parts.iter().any(|p| p[k] != parts[0][k]))
-        .collect();
-    parts
+    let varies = converge_chart::varying_axes(methods);
+    methods
         .iter()
-        .map(|p| {
-            let kept: Vec<&str> = (0..6).filter(|&k| varies[k]).map(|k| p[k]).collect();
+        .map(|m| {
+            let parts = m.parts();
+            let kept: Vec<&str> = (0..parts.len())
+                .filter(|&k| varies[k])
+                .map(|k| parts[k])
+                .collect();
             if kept.is_empty() {
-                p.join("-")
+                parts.join("-")
             } else {
                 kept.join("-")
             }
@@ -488,6 +524,16 @@ impl Job<'_> {
     /// Renders every method ([`compare`]) and writes the CSV and the charts (after
     /// [`Job::prepare`]).
     pub fn run(&self, on_run: &mut dyn FnMut(usize, &Run)) -> Result<Report> {
+        self.run_with(&[], on_run)
+    }
+
+    /// [`Job::run`], with other renderers' `curves` (`--compare`, checked with
+    /// [`converge_chart::check_compare`]) on the charts and in the summary.
+    pub fn run_with(
+        &self,
+        curves: &[Curve],
+        on_run: &mut dyn FnMut(usize, &Run),
+    ) -> Result<Report> {
         self.prepare()?;
         let dir = &self.out_dir;
         let (scene, c) = (self.scene, &self.scene.camera);
@@ -507,8 +553,9 @@ impl Job<'_> {
             std::fs::write(tmp, text.as_bytes()).map_err(|e| format!("cannot write: {e}").into())
         })?;
         let title = format!("{} {}x{}", scene.name(), c.width, c.height);
-        write_charts(&runs, &regions, region, &title, dir)?;
-        let summary = self.summary(&runs, &regions, region);
+        converge_chart::check_compare(curves, &regions[region].name)?;
+        converge_chart::write_charts(&runs, curves, &regions, region, &title, dir)?;
+        let summary = self.summary(&runs, curves, &regions, region);
         Ok(Report {
             runs,
             regions,
@@ -518,7 +565,13 @@ impl Job<'_> {
     }
 
     /// [`Report::summary`].
-    fn summary(&self, runs: &[Run], regions: &[MeasuredRegion], region: usize) -> String {
+    fn summary(
+        &self,
+        runs: &[Run],
+        curves: &[Curve],
+        regions: &[MeasuredRegion],
+        region: usize,
+    ) -> String {
         let (c, r) = (&self.scene.camera, &self.reference);
         let mut out = format!(
             "{} {}x{} against {} ({} spp)\n",
@@ -557,8 +610,7 @@ impl Job<'_> {
             );
         }
         out.push('\n');
-        let (target, worst, rows) = summarize(runs, region);
-        out.push_str(&format_summary(name, target, &worst, &rows));
+        out.push_str(&converge_chart::summary(runs, curves, regions, region));
         out
     }
 }
@@ -666,55 +718,6 @@ pub fn reference_noise(variance: &[[f32; 3]], pixels: &[usize]) -> f64 {
     (sum / (3 * pixels.len()) as f64).sqrt()
 }
 
-/// Writes `error-vs-time` and `error-vs-spp` (SVG and PNG) into `dir`: the RMSE over
-/// `regions[region]` of every run, against seconds and against spp; `title` starts
-/// each chart's title.
-pub fn write_charts(
-    runs: &[Run],
-    regions: &[MeasuredRegion],
-    region: usize,
-    title: &str,
-    dir: &Path,
-) -> Result<()> {
-    let methods: Vec<Resolved> = runs.iter().map(|r| r.method).collect();
-    let names = short_names(&methods);
-    let over = if region == 0 {
-        "the whole image".to_string()
-    } else {
-        format!("region `{}`", regions[region].name)
-    };
-    type X = fn(&Checkpoint) -> f64;
-    let axes: [(&str, &str, &str, X); 2] = [
-        ("error-vs-time", "time", "seconds of rendering", |c| {
-            c.seconds
-        }),
-        ("error-vs-spp", "spp", "samples per pixel", |c| c.spp as f64),
-    ];
-    for (file, against, x_label, x_of) in axes {
-        let chart = LogLogChart {
-            title: format!("{title}: RMSE over {over} against {against}"),
-            x_label: x_label.into(),
-            y_label: "RMSE (linear sRGB)".into(),
-            series: runs
-                .iter()
-                .zip(&names)
-                .map(|(run, name)| Series {
-                    name: name.clone(),
-                    points: run
-                        .checkpoints
-                        .iter()
-                        .map(|c| (x_of(c), c.errors[region].rmse))
-                        .collect(),
-                })
-                .collect(),
-            reference_slope: true,
-        };
-        chart::write_svg(&chart, &dir.join(format!("{file}.svg")))?;
-        chart::write_png(&chart, &dir.join(format!("{file}.png")))?;
-    }
-    Ok(())
-}
-
 /// The CSV text of some runs (header included): one row per checkpoint and region.
 pub fn csv(runs: &[Run], regions: &[MeasuredRegion]) -> String {
     let mut out = String::new();
@@ -814,12 +817,17 @@ pub struct SummaryRow {
     pub relmse: f64,
     /// Seconds to reach the target relative MSE.
     pub time_to_target: Option<f64>,
+    /// For another renderer's curve (`--compare`), the file it came from.
+    pub external: Option<String>,
 }
 
-/// The summary over one region: per method, slope, final errors and the time to reach
-/// the target relative MSE — the worst final relative MSE of all methods (named in
-/// the returned `(target, its method)`), which every method reaches.
+/// The summary over one region: per method (named by [`short_names`]), slope, final
+/// errors and the time to reach the target relative MSE — the worst final relative MSE
+/// of all methods (named in the returned `(target, its method)`), which every method
+/// reaches.
 pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) {
+    let methods: Vec<Resolved> = runs.iter().map(|r| r.method).collect();
+    let names = short_names(&methods);
     let finals: Vec<Errors> = runs
         .iter()
         .map(|r| {
@@ -834,16 +842,17 @@ pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) 
         })
         .collect();
     let (mut target, mut worst) = (f64::NAN, String::new());
-    for (run, e) in runs.iter().zip(&finals) {
+    for (name, e) in names.iter().zip(&finals) {
         if e.relmse.is_finite() && (target.is_nan() || e.relmse > target) {
             target = e.relmse;
-            worst = run.method.to_string();
+            worst = name.clone();
         }
     }
     let rows = runs
         .iter()
         .zip(&finals)
-        .map(|(run, e)| {
+        .zip(names)
+        .map(|((run, e), name)| {
             let pts: Vec<(f64, f64)> = run
                 .checkpoints
                 .iter()
@@ -851,21 +860,30 @@ pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) 
                 .collect();
             let last = run.checkpoints.last();
             SummaryRow {
-                method: run.method.to_string(),
+                method: name,
                 spp: last.map_or(0, |c| c.spp),
                 seconds: last.map_or(0.0, |c| c.seconds),
                 slope: rmse_slope(run, region),
                 rmse: e.rmse,
                 relmse: e.relmse,
                 time_to_target: time_to_reach(&pts, target),
+                external: None,
             }
         })
         .collect();
     (target, worst, rows)
 }
 
-/// The summary as a Markdown table, with a line naming the region and the target.
-pub fn format_summary(region: &str, target: f64, worst: &str, rows: &[SummaryRow]) -> String {
+/// The summary as a Markdown table, with a line naming the region and the target, one
+/// stating the values every method shares (`common`, if any) and one naming the fastest
+/// to the target. Rows of other renderers are marked `(external: FILE)`.
+pub fn format_summary(
+    region: &str,
+    target: f64,
+    worst: &str,
+    common: &str,
+    rows: &[SummaryRow],
+) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -876,6 +894,25 @@ pub fn format_summary(region: &str, target: f64, worst: &str, rows: &[SummaryRow
             format!("region `{region}`")
         }
     );
+    if !common.is_empty() {
+        let _ = writeln!(
+            out,
+            "Every method of stokes here has {common}; the names below give the other axes."
+        );
+    }
+    if let Some(r) = converge_chart::fastest(rows).map(|i| &rows[i]) {
+        let _ = writeln!(
+            out,
+            "Fastest to the target: {}{} in {:.3} s.",
+            r.method,
+            if r.external.is_some() {
+                " (external)"
+            } else {
+                ""
+            },
+            r.time_to_target.unwrap_or(f64::NAN)
+        );
+    }
     out.push('\n');
     out.push_str(
         "| method | spp | seconds | slope | final RMSE | final relMSE | seconds to target |\n",
@@ -884,8 +921,12 @@ pub fn format_summary(region: &str, target: f64, worst: &str, rows: &[SummaryRow
     for r in rows {
         let _ = writeln!(
             out,
-            "| {} | {} | {:.2} | {} | {:.4e} | {:.4e} | {} |",
+            "| {}{} | {} | {:.2} | {} | {:.4e} | {:.4e} | {} |",
             r.method,
+            r.external
+                .as_ref()
+                .map(|f| format!(" (external: {f})"))
+                .unwrap_or_default(),
             r.spp,
             r.seconds,
             r.slope.map_or("—".into(), |s| format!("{s:.3}")),

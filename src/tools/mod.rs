@@ -5,6 +5,8 @@
 //! - [`reference`]: `stokes reference`, long references that can be resumed;
 //! - [`converge`]: `stokes converge`, error against time and spp for several methods;
 //! - [`submit`]: `stokes submit slurm`, a render split into a Slurm job array and a merge;
+//! - [`converge_chart`]: what `converge` draws (styles by meaning, other renderers' curves,
+//!   redrawing from a CSV) and how it names methods;
 //! - [`chart`]: the log–log charts `converge` draws;
 //! - [`convert`]: `stokes convert-bispectral`, a measured matrix (BFC, CSV) as CSV;
 //! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`.
@@ -14,6 +16,7 @@ pub mod bench_rays;
 pub mod bench_render;
 pub mod chart;
 pub mod converge;
+pub mod converge_chart;
 pub mod convert;
 pub mod merge;
 pub mod reference;

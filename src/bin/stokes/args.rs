@@ -333,11 +333,12 @@ pub struct ReferenceArgs {
 #[derive(Args, Clone)]
 pub struct ConvergeArgs {
     /// The scene file (TOML).
-    pub scene: PathBuf,
+    #[arg(required_unless_present = "redraw")]
+    pub scene: Option<PathBuf>,
     /// The reference EXR (from `stokes reference`) of the same scene file, at the size of
     /// this run.
-    #[arg(long)]
-    pub reference: PathBuf,
+    #[arg(long, required_unless_present = "redraw")]
+    pub reference: Option<PathBuf>,
     /// Methods to compare, comma-separated (names below; default: every combination the
     /// scene makes meaningful).
     #[arg(long)]
@@ -348,9 +349,19 @@ pub struct ConvergeArgs {
     /// At most this many samples per pixel per method.
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Output directory (default: out/converge/<scene name>).
+    /// Output directory (default: out/converge/<scene name>; with --redraw, DIR).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Another renderer's convergence, drawn as an extra line on both charts and listed
+    /// in the summary as external: a CSV with the columns method, spp, seconds, region,
+    /// rmse, relmse (found by name; others ignored), one line per distinct method.
+    /// Repeatable.
+    #[arg(long, value_name = "FILE.csv")]
+    pub compare: Vec<PathBuf>,
+    /// Render nothing: redraw the charts and print the summary from DIR/convergence.csv
+    /// (written by an earlier run), with --compare's lines if given.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "reference", "methods", "spp"])]
+    pub redraw: Option<PathBuf>,
     #[command(flatten)]
     pub method: MethodArgs,
 }

@@ -15,7 +15,7 @@ use stokes::integrator::render::{ProgressiveResult, Stopped};
 use stokes::method::{Method, Resolved};
 use stokes::output::{RenderFiles, RenderStats};
 use stokes::scene::Scene;
-use stokes::tools::{converge, merge, reference, submit};
+use stokes::tools::{converge, converge_chart, merge, reference, submit};
 use stokes::Result;
 
 fn main() -> ExitCode {
@@ -402,22 +402,39 @@ fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode> {
 }
 
 fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<()> {
-    let mut scene = load(&a.scene)?;
+    // Other renderers' curves, read before anything renders.
+    let mut curves = Vec::new();
+    for file in &a.compare {
+        curves.extend(converge_chart::read_compare(file)?);
+    }
+    if let Some(dir) = &a.redraw {
+        let out = a.out.as_deref().unwrap_or(dir);
+        print!("{}", converge_chart::redraw(dir, out, &curves)?);
+        let d = out.display();
+        eprintln!("→ {d}/error-vs-time.svg/.png, {d}/error-vs-spp.svg/.png");
+        return Ok(());
+    }
+    let (Some(scene_path), Some(reference_path)) = (&a.scene, &a.reference) else {
+        return Err(Error::Other(
+            "stokes converge needs a SCENE and --reference REF.exr (or --redraw DIR)".into(),
+        ));
+    };
+    let mut scene = load(scene_path)?;
     if a.spp == Some(0) {
         return Err(at_least_one("--spp"));
     }
-    let base = a.method.options(&mut scene, &a.scene, 1)?;
-    let r = a.reference.display();
-    if !a.reference.exists() {
+    let base = a.method.options(&mut scene, scene_path, 1)?;
+    let r = reference_path.display();
+    if !reference_path.exists() {
         return Err(Error::option(
             &format!("--reference {r}"),
             format!(
                 "no such file (make one with `stokes reference {} --spp N -o {r}`)",
-                a.scene.display()
+                scene_path.display()
             ),
         ));
     }
-    let reference = merge::Part::read(&a.reference)?;
+    let reference = merge::Part::read(reference_path)?;
     if let Some(w) = converge::check_reference(&reference, &scene, &base)? {
         eprintln!("warning: {w}");
     }
@@ -464,8 +481,9 @@ fn cmd_converge(a: &ConvergeArgs, matches: Option<&clap::ArgMatches>) -> Result<
     eprintln!("{}", job.describe());
     let regions = converge::measured_regions(&scene, scene.camera.width, scene.camera.height);
     let region = converge::chart_region(&regions);
+    converge_chart::check_compare(&curves, &regions[region].name)?;
     let count = job.methods.len();
-    let report = job.run(&mut |i, run| {
+    let report = job.run_with(&curves, &mut |i, run| {
         if let Some(last) = run.checkpoints.last() {
             let rmse = last.errors[region].rmse;
             let (spp, secs, over) = (last.spp, last.seconds, &regions[region].name);
