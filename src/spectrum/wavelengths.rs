@@ -103,9 +103,15 @@ impl VisibleTable {
     /// The wavelength at CDF position `u` ∈ [0, 1).
     #[inline]
     fn sample(&self, u: f32) -> f32 {
+        self.sample_in_bucket((u * GUIDE as f32) as usize, u)
+    }
+
+    /// [`Self::sample`] with u's guide bucket ⌊u·GUIDE⌋ already computed (4 at a time).
+    #[inline]
+    fn sample_in_bucket(&self, bucket: usize, u: f32) -> f32 {
         // The bucket's first cell holds u's bucket start, so the cell holding u is there
         // or after it: step while the next cell starts at or below u.
-        let mut i = self.guide[((u * GUIDE as f32) as usize).min(GUIDE - 1)] as usize;
+        let mut i = self.guide[bucket.min(GUIDE - 1)] as usize;
         while i + 1 < CELLS && self.cdf[i + 1] <= u {
             i += 1;
         }
@@ -271,12 +277,16 @@ fn to_lambda<F: Float>(u: F) -> F {
 #[inline(always)]
 pub fn hwss<F: Float>(w: Wavelengths, u: F) -> Spec<F> {
     let one = F::splat(1.0);
+    let table = visible_table();
     let lane = |k: f32| {
         let v = u + F::splat(0.25 * k);
         let v = F::select(v.ge(one), v - one, v);
         match w {
             Wavelengths::Uniform => to_lambda(v),
-            _ => F::from_fn(|i| w.sample(v.get(i))),
+            Wavelengths::Visible => {
+                let bucket = (v * F::splat(GUIDE as f32)).to_index();
+                F::from_fn(|i| table.sample_in_bucket(bucket[i] as usize, v.get(i)))
+            }
         }
     };
     Spec([lane(0.0), lane(1.0), lane(2.0), lane(3.0)])

@@ -96,7 +96,8 @@ Outputs in --out DIR:
                     the axes that vary, the subtitle gives the values all share.
 and on stdout a table: per method, the fitted log-log slope of RMSE against spp (over
 checkpoints with spp >= 4; -0.5 for an unbiased method), the final errors and the
-seconds to reach the worst final relMSE of all methods, and the fastest to it.
+seconds to reach the worst final relMSE of the methods that converge (slope <= -0.4;
+of all if none does), and the fastest to it.
 
 Another renderer (--compare FILE.csv, repeatable): a CSV in the convergence.csv format;
 the columns method, spp, seconds, region, rmse, relmse are found by their header names
@@ -821,10 +822,14 @@ pub struct SummaryRow {
     pub external: Option<String>,
 }
 
+/// A fitted slope of ln RMSE on ln spp at or below this counts as converging (−0.5 for an
+/// unbiased method; a biased one flattens towards 0 once its bias dominates).
+pub const CONVERGING_SLOPE: f64 = -0.4;
+
 /// The summary over one region: per method (named by [`short_names`]), slope, final
 /// errors and the time to reach the target relative MSE — the worst final relative MSE
-/// of all methods (named in the returned `(target, its method)`), which every method
-/// reaches.
+/// of the methods that converge (slope ≤ [`CONVERGING_SLOPE`]; of all if none does),
+/// named in the returned `(target, its method)`, which each of them reaches.
 pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) {
     let methods: Vec<Resolved> = runs.iter().map(|r| r.method).collect();
     let names = short_names(&methods);
@@ -841,9 +846,17 @@ pub fn summarize(runs: &[Run], region: usize) -> (f64, String, Vec<SummaryRow>) 
             )
         })
         .collect();
+    // A biased method's error stops falling (its slope flattens): only the methods that
+    // converge set the target, so that every one of them reaches it and the biased ones'
+    // plateau does not make the comparison trivial. If none converges, all count.
+    let converging: Vec<bool> = runs
+        .iter()
+        .map(|r| rmse_slope(r, region).is_some_and(|k| k <= CONVERGING_SLOPE))
+        .collect();
+    let any = converging.iter().any(|&c| c);
     let (mut target, mut worst) = (f64::NAN, String::new());
-    for (name, e) in names.iter().zip(&finals) {
-        if e.relmse.is_finite() && (target.is_nan() || e.relmse > target) {
+    for ((name, e), &ok) in names.iter().zip(&finals).zip(&converging) {
+        if (ok || !any) && e.relmse.is_finite() && (target.is_nan() || e.relmse > target) {
             target = e.relmse;
             worst = name.clone();
         }
@@ -887,7 +900,7 @@ pub fn format_summary(
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "Errors over {}; slope: least squares of ln RMSE on ln spp over checkpoints with spp ≥ {SLOPE_MIN_SPP} (−0.5 for an unbiased estimator); target: relMSE {target:.3e}, the worst final relMSE (of {worst}).",
+        "Errors over {}; slope: least squares of ln RMSE on ln spp over checkpoints with spp ≥ {SLOPE_MIN_SPP} (−0.5 for an unbiased estimator); target: relMSE {target:.3e}, the worst final relMSE of the converging methods (slope ≤ −0.4), of {worst}.",
         if region == "image" {
             "the whole image".to_string()
         } else {

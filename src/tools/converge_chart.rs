@@ -622,7 +622,7 @@ pub fn charts(
             y: target,
             colour: fill,
             label: format!(
-                "target relMSE {target:.3} (the worst final one); fastest: {name} in {t:.3} s"
+                "target relMSE {target:.3} (the worst final one that converges); fastest: {name} in {t:.3} s"
             ),
         })
     });
