@@ -111,6 +111,19 @@ fn parts_with_another_method_or_the_same_samples_are_refused_and_nothing_is_writ
         e.contains("was rendered with rays = single") && e.contains("rays = packet"),
         "{e}"
     );
+    // Parts drawn with another hero pdf estimate the same image but are other samples
+    // of another estimator: refused, naming the key.
+    let mut uniform = opts.clone();
+    uniform.method.wavelengths = stokes::method::Wavelengths::Uniform;
+    let c = part(&scene, &uniform, 2, 2, &dir.join("c.exr"));
+    let e = merge::merge(&[a.clone(), c], &out, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("was rendered with wavelengths = uniform")
+            && e.contains("wavelengths = visible"),
+        "{e}"
+    );
     let e = merge::merge(&[a.clone(), a], &out, false)
         .unwrap_err()
         .to_string();
