@@ -10,11 +10,12 @@
 //!
 //! Two pdfs ([`Wavelengths`], the `wavelengths` axis of the method):
 //! - `uniform`: p = 1/Δ, Δ = MAX − MIN, so the lanes are Δ/4 apart;
-//! - `visible`: p ∝ x̄ + ȳ + z̄ plus a floor of [`VISIBLE_FLOOR`] of its peak, piecewise
-//!   constant on 1 nm cells. A third of the uniform range (below 400 and above 700 nm)
-//!   carries almost nothing the observer sees; this pdf puts the lanes where it looks,
-//!   while the floor keeps every wavelength possible (spectral output, UV-lit scenes) and
-//!   bounds x̄ȳz̄/p, so no lane's weight can blow up.
+//! - `visible`: p ∝ |(r̄, ḡ, b̄)(λ)|, the length of the linear-sRGB colour-matching
+//!   functions, plus a floor of [`VISIBLE_FLOOR`] of its peak, piecewise constant on 1 nm
+//!   cells. A third of the uniform range (below 400 and above 700 nm) carries almost
+//!   nothing the observer sees; this pdf puts the lanes where it looks, while the floor
+//!   keeps every wavelength possible (spectral output, UV-lit scenes) and bounds r̄ḡb̄/p,
+//!   so no lane's weight can blow up.
 
 use crate::simd::{Float, Spec};
 use glam::Vec4;
@@ -27,10 +28,9 @@ use crate::color::xyz_to_linear_srgb;
 /// range even when `MIN + u·Δ` rounds up to `MAX`.
 const LAMBDA_BELOW_MAX: f32 = 829.999_94;
 
-/// The visible pdf's floor, as a fraction of the peak of x̄ + ȳ + z̄. Measured on the
-/// wavelength part of the variance of linear sRGB (flat, Cornell light and wall spectra):
-/// 0.5–5 % all do within a few percent of each other, 2 % best on average; without a floor
-/// the red wall's variance is 30 % higher (its reflectance rises where x̄ falls).
+/// The visible pdf's floor, as a fraction of the peak of |r̄ḡb̄|: high enough that the ends
+/// of the range are still sampled (the largest film weight stays small), low enough that
+/// the lanes stay where the observer looks.
 pub const VISIBLE_FLOOR: f64 = 0.05;
 
 /// How the hero wavelength is drawn: the `wavelengths` axis of a method.
@@ -99,6 +99,15 @@ fn visible_table() -> &'static VisibleTable {
     })
 }
 
+/// The 1 nm cell that holds λ, if λ is in [MIN, MAX) (not for NaN).
+#[inline]
+fn cell(lambda: f32) -> Option<usize> {
+    let f = lambda - LAMBDA_MIN;
+    (0.0..LAMBDA_RANGE)
+        .contains(&f)
+        .then(|| (f as usize).min(CELLS - 1))
+}
+
 impl VisibleTable {
     /// The wavelength at CDF position `u` ∈ [0, 1).
     #[inline]
@@ -122,12 +131,7 @@ impl VisibleTable {
     /// p(λ), 0 outside [MIN, MAX).
     #[inline]
     fn pdf(&self, lambda: f32) -> f32 {
-        let f = lambda - LAMBDA_MIN;
-        if (0.0..LAMBDA_RANGE).contains(&f) {
-            self.density[(f as usize).min(CELLS - 1)]
-        } else {
-            0.0
-        }
+        cell(lambda).map_or(0.0, |i| self.density[i])
     }
 
     /// The CDF at λ: the u that [`Self::sample`] maps to λ.
@@ -181,14 +185,11 @@ impl Wavelengths {
             Wavelengths::Uniform => None,
             Wavelengths::Visible => {
                 let t = visible_table();
-                Some(Vec4::from_array(lambda.to_array().map(|l| {
-                    let f = l - LAMBDA_MIN;
-                    if (0.0..LAMBDA_RANGE).contains(&f) {
-                        t.weight[(f as usize).min(CELLS - 1)]
-                    } else {
-                        0.0
-                    }
-                })))
+                Some(Vec4::from_array(
+                    lambda
+                        .to_array()
+                        .map(|l| cell(l).map_or(0.0, |i| t.weight[i])),
+                ))
             }
         }
     }
@@ -205,6 +206,8 @@ impl SampledWavelengths {
     /// wrapped into [0, 1). `u` is expected in [0, 1).
     pub fn hwss_with(w: Wavelengths, u: f32) -> Self {
         let lane = |k: f32| {
+            // Rotate in the unit interval first: adding a quarter and subtracting 1 is exact
+            // there, so the lanes stay exactly a quarter of the CDF apart up to one rounding.
             let mut v = u + 0.25 * k;
             if v >= 1.0 {
                 v -= 1.0;
@@ -228,37 +231,18 @@ impl SampledWavelengths {
     ///
     /// `u` is expected in [0, 1).
     pub fn sample_hwss(u: f32) -> Self {
-        let lane = |k: f32| {
-            // Rotate in the unit interval first: adding a quarter and subtracting 1 is exact
-            // there, so the lanes stay exactly Δ/4 apart (modulo Δ) up to one rounding of λ.
-            let mut v = u + 0.25 * k;
-            if v >= 1.0 {
-                v -= 1.0;
-            }
-            to_lambda(v)
-        };
-        Self {
-            lambda: Vec4::new(lane(0.0), lane(1.0), lane(2.0), lane(3.0)),
-        }
+        Self::hwss_with(Wavelengths::Uniform, u)
     }
 
     /// One wavelength per path (the paper's monochromatic baseline): every lane holds the
     /// hero so that per-lane code needs no special case; the integrator masks lanes 1–3.
     pub fn sample_mono(u: f32) -> Self {
-        Self {
-            lambda: mono(Wavelengths::Uniform, u).into(),
-        }
+        Self::mono_with(Wavelengths::Uniform, u)
     }
 
     /// The pdf of each lane's wavelength, 1/(MAX − MIN): every lane is marginally uniform.
     pub fn pdf() -> f32 {
         1.0 / LAMBDA_RANGE
-    }
-
-    /// The random number that [`Self::sample_hwss`] / [`Self::sample_mono`] map to the hero
-    /// wavelength `lambda` (the inverse of the sampling map).
-    pub fn invert(lambda: f32) -> f32 {
-        (lambda - LAMBDA_MIN) / LAMBDA_RANGE
     }
 
     /// The hero wavelength (lane 0).
@@ -352,10 +336,10 @@ mod tests {
     }
 
     #[test]
-    fn invert_undoes_sampling() {
+    fn the_cdf_undoes_sampling() {
         for &u in &[0.0, 0.123, 0.5, 0.987] {
             let w = SampledWavelengths::sample_hwss(u);
-            assert!((SampledWavelengths::invert(w.hero()) - u).abs() < 1e-6);
+            assert!((Wavelengths::Uniform.cdf(w.hero()) - u).abs() < 1e-6);
         }
     }
 
