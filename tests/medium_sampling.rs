@@ -32,6 +32,7 @@ mod one_path {
     }
 }
 use one_path::{pdf_collision, prob_surface, sample_distance, transmittance};
+use stokes::fluoro::Reradiation;
 use stokes::medium::{HenyeyGreenstein, Homogeneous};
 use stokes::method::Axis;
 use stokes::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
@@ -682,13 +683,19 @@ fn medium_coefficients_follow_the_dye_convention() {
 
 #[test]
 fn medium_shift_sampling_chi_square_and_weight() {
-    let m = dyed_medium();
-    let cell = 10.0f32;
+    shift_sampling_chi_square(&dyed_medium(), 0.3, 10.0, &[495.0, 533.0, 600.0, 635.0], 51);
+}
+
+/// Chi-square of `m`'s shift sampling at each output wavelength in `lambdas` against its
+/// `shift_pdf` on `cell`-nm bins (F is constant on them), plus the kept bin; every sample's
+/// value/pdf must be σ̂_s and agree with `shift_pdf` and `shift_value`. `sigma_s` is the
+/// medium's elastic scattering (the kept probability is σ_s/σ̂_s).
+fn shift_sampling_chi_square(m: &Homogeneous, sigma_s: f32, cell: f32, lambdas: &[f32], seed: u64) {
     let cells = ((LAMBDA_MAX - LAMBDA_MIN) / cell).ceil() as usize;
-    let mut rng = Rng::new(51, 8);
-    for (idx, lambda_o) in [495.0f32, 533.0, 600.0, 635.0].into_iter().enumerate() {
+    let mut rng = Rng::new(seed, 8);
+    for (idx, &lambda_o) in lambdas.iter().enumerate() {
         let ss_hat = m.sigma_s_hat(Vec4::splat(lambda_o)).x;
-        assert!(ss_hat > 0.3, "σ̂_s({lambda_o}) = {ss_hat}");
+        assert!(ss_hat > sigma_s, "σ̂_s({lambda_o}) = {ss_hat}");
         let n = 200_000usize;
         // Bin 0: kept; bin 1 + c: shifted into cell c.
         let mut counts = vec![0u64; cells + 1];
@@ -725,7 +732,7 @@ fn medium_shift_sampling_chi_square_and_weight() {
             "λo {lambda_o}: total mass {total}"
         );
         // Kept with probability σ_s/σ̂_s.
-        assert!((expected[0] - 0.3 / ss_hat as f64).abs() < 1e-6);
+        assert!((expected[0] - sigma_s as f64 / ss_hat as f64).abs() < 1e-6);
         let expected: Vec<f64> = expected.iter().map(|p| p * n as f64).collect();
         let r = chi_square(&counts, &expected);
         println!(
@@ -815,13 +822,20 @@ fn single_scattering_in_a_fluorescent_slab_exposes_classic_bias() {
         st.x == 0.0 && st.y == 0.0 && ss.x > 0.0 && ss.y > 0.0,
         "{st} {ss}"
     );
+    trackers_against_slab_quadrature(&m, 61);
+}
+
+/// The slab's detector estimate with every tracker against [`slab_reference`]: classic
+/// tracking biased low (z < −5), maximum and fluorescence-aware within |z| < 4.
+fn trackers_against_slab_quadrature(m: &Homogeneous, seed: u64) {
+    let m = m.clone();
     let reference = slab_reference(&m);
     assert!(reference > 0.0);
     let n = 400_000;
     let mut report = String::new();
     let mut z_of = [0.0f64; 3];
     for (i, method) in METHODS.into_iter().enumerate() {
-        let mut rng = Rng::new(61 + i as u64, 10);
+        let mut rng = Rng::new(seed + i as u64, 10);
         let (mut s, mut s2) = (0.0f64, 0.0f64);
         for _ in 0..n {
             let x = slab_sample(&m, method, &mut rng);
@@ -848,4 +862,121 @@ fn single_scattering_in_a_fluorescent_slab_exposes_classic_bias() {
         z_of[2].abs() < 4.0,
         "fluorescence-aware tracking disagrees:\n{report}"
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// A medium with a general re-radiation matrix (the EGSR 2018 paper's tent-min form)
+// ---------------------------------------------------------------------------------------
+
+/// M(λi → λo) = d₀·min(tent(λi; 460, 40), tent(λo; 560, 40)) for λo > λi on 5-nm cells
+/// with centres at 362.5, 367.5, … (edges on whole nm, where the quadrature's 1-nm
+/// midpoints cannot straddle them), as a CSV the way a scene file names it; d₀ = 0.25 per
+/// cell makes the peak row sum σ_sa(460) = 2 per unit at scale 1.
+fn tent_min_csv() -> String {
+    let tent = |l: f64, c: f64, w: f64| (1.0 - (l - c).abs() / w).max(0.0);
+    let centres: Vec<f64> = (0..94).map(|k| 362.5 + 5.0 * k as f64).collect();
+    let mut out = String::from("nm");
+    for c in &centres {
+        out += &format!(",{c}");
+    }
+    out.push('\n');
+    for &li in &centres {
+        out += &format!("{li}");
+        for &lo in &centres {
+            let m = if lo > li {
+                0.25 * tent(li, 460.0, 40.0).min(tent(lo, 560.0, 40.0))
+            } else {
+                0.0
+            };
+            out += &format!(",{m}");
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// An exclusively fluorescent medium re-radiating with [`tent_min_csv`] at `scale`, over
+/// elastic scattering `sigma_s`.
+fn tent_min_medium(scale: f32, sigma_s: f32) -> Homogeneous {
+    let (rr, report) = Reradiation::from_csv_str(&tent_min_csv(), "tent-min").unwrap();
+    assert!(report.is_clean(), "{report}");
+    Homogeneous::new(
+        Spectrum::Constant(0.0),
+        Spectrum::Constant(sigma_s),
+        HenyeyGreenstein::isotropic(),
+    )
+    .with_matrix(rr, scale)
+    .unwrap()
+}
+
+#[test]
+fn matrix_medium_extinction_is_its_row_sum_and_scattering_its_column_sum() {
+    let tent = |l: f64, c: f64, w: f64| (1.0 - (l - c).abs() / w).max(0.0);
+    let scale = 1.5f32;
+    let m = tent_min_medium(scale, 0.1);
+    assert!(m.is_fluorescent());
+    assert_eq!(m.quantum_yield(), None);
+    let mut l = LAMBDA_MIN + 0.7;
+    while l < LAMBDA_MAX {
+        // The cell's centre and the brute-force sums over the other cells' centres.
+        let c = 362.5 + 5.0 * ((l as f64 - 360.0) / 5.0).floor();
+        let (mut row, mut column) = (0.0f64, 0.0f64);
+        for k in 0..94 {
+            let o = 362.5 + 5.0 * k as f64;
+            if o > c {
+                row += 0.25 * tent(c, 460.0, 40.0).min(tent(o, 560.0, 40.0));
+            }
+            if o < c {
+                column += 0.25 * tent(o, 460.0, 40.0).min(tent(c, 560.0, 40.0));
+            }
+        }
+        let v = Vec4::splat(l);
+        let st = m.sigma_t_hat(v).x as f64;
+        let ss = m.sigma_s_hat(v).x as f64;
+        // σ̂_t = σ_s + scale·σ_sa; σ̂_s = σ_s + scale·σ_se.
+        assert!(
+            (st - 0.1 - 1.5 * row).abs() < 1e-5,
+            "σ̂_t({l}) = {st}, row {row}"
+        );
+        assert!(
+            (ss - 0.1 - 1.5 * column).abs() < 1e-5,
+            "σ̂_s({l}) = {ss}, column {column}"
+        );
+        l += 1.3;
+    }
+    // The peak: σ_sa(460) = 0.25 × Σ tent_e = 0.25 × 8 = 2 per unit, × scale.
+    let peak = m.sigma_sa(Vec4::splat(461.0)).x;
+    assert!((peak - 2.0 * scale).abs() < 1e-5, "{peak}");
+    // Transparent outside the absorption band (classic tracking's blind spot).
+    assert_eq!(m.sigma_t_hat(Vec4::splat(560.0)).x, 0.1);
+}
+
+#[test]
+fn matrix_medium_shift_sampling_chi_square() {
+    shift_sampling_chi_square(
+        &tent_min_medium(1.5, 0.1),
+        0.1,
+        5.0,
+        &[521.0, 548.0, 560.0, 597.0],
+        71,
+    );
+}
+
+#[test]
+fn matrix_medium_single_scattering_matches_quadrature_and_classic_is_biased() {
+    let m = tent_min_medium(1.0, 0.0);
+    trackers_against_slab_quadrature(&m, 81);
+}
+
+#[test]
+fn matrix_medium_rejects_a_bad_scale_and_a_matrix_that_shifts_nothing() {
+    let (rr, _) = Reradiation::from_csv_str(&tent_min_csv(), "tent-min").unwrap();
+    let plain = || Homogeneous::from_albedo(0.5, 1.0, HenyeyGreenstein::isotropic());
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        assert!(plain().with_matrix(rr.clone(), bad).is_err(), "{bad}");
+    }
+    let diagonal = "nm,400,410\n400,0.5,0\n410,0,0.5\n";
+    let (flat, _) = Reradiation::from_csv_str(diagonal, "diagonal").unwrap();
+    let e = plain().with_matrix(flat, 1.0).unwrap_err().to_string();
+    assert!(e.contains("shifts no light"), "{e}");
 }

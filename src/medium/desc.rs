@@ -3,13 +3,14 @@
 
 use super::{HenyeyGreenstein, Homogeneous};
 use crate::error::{Key, KeyError};
-use crate::fluoro;
+use crate::fluoro::{self, Reradiation};
 use crate::scene::Context;
 use crate::spectrum::{Range, Spectrum, SpectrumDesc};
 use serde::Deserialize;
 
 /// A homogeneous participating medium: σ_a and σ_s (per scene unit), or albedo and σ_t;
-/// a Henyey–Greenstein phase function; optionally a fluorescent dye.
+/// a Henyey–Greenstein phase function; optionally a fluorescent dye or a re-radiation
+/// matrix.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MediumDesc {
@@ -25,6 +26,20 @@ pub struct MediumDesc {
     pub g: Option<f32>,
     /// A fluorescent dye dissolved in the medium.
     pub dye: Option<MediumDyeDesc>,
+    /// A general re-radiation matrix (instead of a dye).
+    pub matrix: Option<MediumMatrixDesc>,
+}
+
+/// A medium's re-radiation matrix: a file as a `fluorescent_diffuse` material's `matrix`
+/// reads it (CSV, BFC or bispectral OpenEXR; entries are fractions per cell), times
+/// `scale` per scene unit.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumMatrixDesc {
+    /// The matrix file, relative to the scene file.
+    pub file: String,
+    /// The coefficient per scene unit that multiplies the file's entries.
+    pub scale: f32,
 }
 
 /// A fluorescent dye in a medium: its absorption coefficient is
@@ -63,7 +78,11 @@ fn check_density(key: &Key, s: &Spectrum) -> Result<(), KeyError> {
 
 impl Homogeneous {
     /// The medium `m`, `[media.NAME]` at `key`.
-    pub fn from_desc(m: &MediumDesc, key: &Key, ctx: &Context) -> Result<Homogeneous, KeyError> {
+    pub fn from_desc(
+        m: &MediumDesc,
+        key: &Key,
+        ctx: &mut Context,
+    ) -> Result<Homogeneous, KeyError> {
         let coefficient = |k: &str, s: &SpectrumDesc| {
             Spectrum::from_desc(s, &key.field(k), ctx, Some(Range::NonNegative))
         };
@@ -103,11 +122,51 @@ impl Homogeneous {
             return Err(key.field("g").expected("a number in (−1, 1)", g));
         }
         let medium = Homogeneous::new(sigma_a, sigma_s, HenyeyGreenstein::new(g));
-        match &m.dye {
-            None => Ok(medium),
-            Some(d) => with_dye(medium, d, &key.field("dye"), ctx),
+        match (&m.dye, &m.matrix) {
+            (None, None) => Ok(medium),
+            (Some(d), None) => with_dye(medium, d, &key.field("dye"), ctx),
+            (None, Some(x)) => with_matrix(medium, x, &key.field("matrix"), ctx),
+            (Some(_), Some(_)) => Err(key.error(
+                "expected at most one of `dye = { ... }` and `matrix = { file = ..., scale = ... }`",
+            )),
         }
     }
+}
+
+/// `medium` re-radiating with the matrix `x` (at `key`).
+fn with_matrix(
+    medium: Homogeneous,
+    x: &MediumMatrixDesc,
+    key: &Key,
+    ctx: &mut Context,
+) -> Result<Homogeneous, KeyError> {
+    let path = ctx.resolve(&x.file);
+    let file = key.field("file");
+    let (rr, report) = Reradiation::from_file(&path).map_err(|e| file.error(e))?;
+    if !report.is_clean() {
+        ctx.warn(&file, format!("{}: {report}", path.display()));
+    }
+    let scale = key.field("scale");
+    if !(x.scale.is_finite() && x.scale > 0.0) {
+        return Err(scale.expected("a positive coefficient per scene unit", x.scale));
+    }
+    let peak = (0..rr.cells())
+        .map(|k| rr.sigma_sa(rr.cell_centre(k)))
+        .fold(0.0f32, f32::max);
+    if f64::from(peak) * f64::from(x.scale) > f64::from(MAX_COEFFICIENT) {
+        return Err(scale.expected(
+            format!("scale × the largest row sum ≤ {MAX_COEFFICIENT:e} per scene unit (denser is opaque at any scale and overflows 32-bit floats)"),
+            format!("{:e} × {peak:e}", x.scale),
+        ));
+    }
+    let diagonal = rr.diagonal().max_value();
+    if diagonal > 0.0 {
+        ctx.warn(
+            key,
+            format!("{}: the diagonal (up to {diagonal}) is not used in a medium; elastic scattering is `sigma_s`", path.display()),
+        );
+    }
+    medium.with_matrix(rr, x.scale).map_err(|e| file.error(e))
 }
 
 /// `medium` with the dye `d` (at `dye`) dissolved in it.

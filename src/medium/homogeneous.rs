@@ -1,7 +1,8 @@
-//! A homogeneous medium, optionally with a fluorescent dye dissolved in it.
+//! A homogeneous medium, optionally fluorescent: a dye dissolved in it, or a general
+//! re-radiation matrix.
 //!
 //! # Units
-//! Coefficients σ are in 1/scene-unit (the unit of the scene's coordinates). The dye's
+//! Coefficients σ are in 1/scene-unit (the unit of the scene's coordinates). The
 //! re-emission density F(λi, λo) is per scene-unit and per nm of λi; σ_se and σ_sa are in
 //! 1/scene-unit. A shift sample's `value` is σ_s(λo) for a kept wavelength and F(λi, λo) for
 //! a shift, and value/pdf = σ̂_s(λo) either way.
@@ -23,22 +24,32 @@
 //! to a longer wavelength), so the dye adds its full σ_dye(λ), evaluated continuously at λ,
 //! to the extinction:
 //!
-//! σ̂_t(λ) = σ_a(λ) + σ_s(λ) + σ_dye(λ),   σ̂_s(λ) = σ_s(λ) + σ_se(λ).
+//! σ̂_t(λ) = σ_a(λ) + σ_s(λ) + σ_f(λ),   σ̂_s(λ) = σ_s(λ) + σ_se(λ),
 //!
-//! (In docs/design.md's notation σ̂_t = σ_a' + σ_s + σ_sa with σ_a' = σ_a + σ_dye − σ_sa the
-//! absorption that does not re-emit.) σ̂_s may exceed σ̂_t: in the emission band outside the
-//! absorption band σ̂_t can even be 0 while σ̂_s > 0.
+//! with σ_f = σ_dye for a dye. (In docs/design.md's notation σ̂_t = σ_a' + σ_s + σ_sa with
+//! σ_a' = σ_a + σ_dye − σ_sa the absorption that does not re-emit.) σ̂_s may exceed σ̂_t:
+//! in the emission band outside the absorption band σ̂_t can even be 0 while σ̂_s > 0.
+//!
+//! # A re-radiation matrix
+//! Not every fluorescent medium is a dye: the EGSR 2018 paper's medium re-radiates with
+//! M(λi → λo) = d₀·min(tentₐ(λi), tentₑ(λo)), which no absorption × emission product
+//! reproduces. [`Homogeneous::with_matrix`] takes F from a measured or generated matrix
+//! (m[i][o] the fraction per cell, as a fluorescent surface reads it) times a coefficient
+//! `scale` per scene unit. Its out-shifting σ_sa is then all the extinction it adds,
+//! σ_f = σ_sa: the matrix says what is re-emitted, and any absorption that is lost is
+//! σ_a's. The matrix's diagonal is not used (elastic scattering is σ_s).
 //!
 //! [`Reradiation::from_dye`] takes A as a fraction ≤ 1, but a coefficient may exceed 1.
 //! Since F is linear in A and the shift-sampling CDFs do not depend on its scale, the dye is
 //! stored as a [`Reradiation`] built from σ_dye/s with s = max(1, max σ_dye), whose diagonal
-//! is σ_s/s; σ_se, σ_sa and shift values are multiplied back by s, pdfs are unchanged.
+//! is σ_s/s; σ_se, σ_sa and shift values are multiplied back by s, pdfs are unchanged. A
+//! matrix is stored as read, with s its `scale`.
 
 use super::phase::HenyeyGreenstein;
 use crate::error::Detail;
 use crate::fluoro::{Reradiation, ShiftSample};
 use crate::simd::Float;
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 use glam::Vec4;
 
 /// A coefficient per lane as used here: negative and NaN count as 0.
@@ -47,26 +58,36 @@ fn nonneg4(v: Vec4) -> Vec4 {
     Vec4::from_array(v.to_array().map(Float::nonneg))
 }
 
+/// What a fluorescent medium adds to the extinction on camera paths (module docs).
+#[derive(Clone, Debug)]
+enum Absorber {
+    /// A dye: all of σ_dye (1/scene-unit) is extinction, re-emitted or not.
+    Dye {
+        sigma_dye: Spectrum,
+        quantum_yield: f32,
+    },
+    /// A re-radiation matrix: its out-shifting σ_sa is the extinction.
+    Matrix,
+}
+
 /// The fluorescent part of a medium.
 #[derive(Clone, Debug)]
-struct Dye {
-    /// σ_dye (1/scene-unit): all of it is extinction on camera paths.
-    sigma_dye: Spectrum,
-    quantum_yield: f32,
+struct Fluorescence {
+    absorber: Absorber,
     /// F/`scale` with diagonal σ_s/`scale` (see the module docs).
     shift: Reradiation,
-    /// s ≥ 1: the factor that brings the stored matrix back to 1/scene-unit.
+    /// s > 0: the factor that brings the stored matrix back to 1/scene-unit.
     scale: f32,
 }
 
 /// A homogeneous medium: absorption σ_a, elastic scattering σ_s with a Henyey–Greenstein
-/// phase function, and optionally a fluorescent dye (module docs).
+/// phase function, and optionally a fluorescent dye or re-radiation matrix (module docs).
 #[derive(Clone, Debug)]
 pub struct Homogeneous {
     sigma_a: Spectrum,
     sigma_s: Spectrum,
     phase: HenyeyGreenstein,
-    dye: Option<Dye>,
+    fluorescence: Option<Fluorescence>,
 }
 
 impl Homogeneous {
@@ -77,7 +98,7 @@ impl Homogeneous {
             sigma_a,
             sigma_s,
             phase,
-            dye: None,
+            fluorescence: None,
         }
     }
 
@@ -130,9 +151,36 @@ impl Homogeneous {
             ))
         })?
         .with_diagonal(self.sigma_s.clone().scaled(1.0 / scale));
-        self.dye = Some(Dye {
-            sigma_dye: absorption_coefficient.clone(),
-            quantum_yield,
+        self.fluorescence = Some(Fluorescence {
+            absorber: Absorber::Dye {
+                sigma_dye: absorption_coefficient.clone(),
+                quantum_yield,
+            },
+            shift,
+            scale,
+        });
+        Ok(self)
+    }
+
+    /// Makes the medium re-radiate with `matrix`'s off-diagonal F times `scale`
+    /// (1/scene-unit; replacing any dye or matrix): σ_f = σ_sa (module docs). The matrix's
+    /// diagonal is replaced by σ_s. An error unless `scale` is positive and finite and the
+    /// matrix shifts some light inside the renderer's range.
+    pub fn with_matrix(mut self, matrix: Reradiation, scale: f32) -> Result<Homogeneous, Detail> {
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(Detail::expected(
+                "a positive coefficient per scene unit",
+                scale,
+            ));
+        }
+        if !matrix.is_fluorescent() {
+            return Err(Detail::Text(format!(
+                "the re-radiation matrix shifts no light between {LAMBDA_MIN} and {LAMBDA_MAX} nm (every entry above the diagonal is 0 there): the medium would not fluoresce"
+            )));
+        }
+        let shift = matrix.with_diagonal(self.sigma_s.clone().scaled(1.0 / scale));
+        self.fluorescence = Some(Fluorescence {
+            absorber: Absorber::Matrix,
             shift,
             scale,
         });
@@ -146,15 +194,20 @@ impl Homogeneous {
         &self.phase
     }
 
-    /// Whether the medium shifts wavelengths (a dye with some F > 0 in range).
+    /// Whether the medium shifts wavelengths (a dye or matrix with some F > 0 in range).
     #[inline]
     pub fn is_fluorescent(&self) -> bool {
-        self.dye.as_ref().is_some_and(|d| d.shift.is_fluorescent())
+        self.fluorescence
+            .as_ref()
+            .is_some_and(|f| f.shift.is_fluorescent())
     }
 
     /// The dye's quantum yield Φ, if there is a dye.
     pub fn quantum_yield(&self) -> Option<f32> {
-        self.dye.as_ref().map(|d| d.quantum_yield)
+        match self.fluorescence.as_ref().map(|f| &f.absorber) {
+            Some(Absorber::Dye { quantum_yield, .. }) => Some(*quantum_yield),
+            _ => None,
+        }
     }
 
     /// σ_a per lane (absorption not due to the dye).
@@ -169,38 +222,46 @@ impl Homogeneous {
         nonneg4(self.sigma_s.eval4(lambda))
     }
 
-    /// σ_dye per lane (all absorption by the dye; 0 without a dye).
+    /// σ_f per lane: the extinction the fluorescent part adds, σ_dye for a dye (all its
+    /// absorption), σ_sa for a matrix; 0 for a plain medium.
     #[inline]
-    pub fn sigma_dye(&self, lambda: Vec4) -> Vec4 {
-        match &self.dye {
-            Some(d) => nonneg4(d.sigma_dye.eval4(lambda)),
+    pub fn sigma_f(&self, lambda: Vec4) -> Vec4 {
+        match &self.fluorescence {
+            Some(Fluorescence {
+                absorber: Absorber::Dye { sigma_dye, .. },
+                ..
+            }) => nonneg4(sigma_dye.eval4(lambda)),
+            Some(Fluorescence {
+                absorber: Absorber::Matrix,
+                ..
+            }) => self.sigma_sa(lambda),
             None => Vec4::ZERO,
         }
     }
 
-    /// In-shifting σ_se(λ) = ∫ F(λi, λ) dλi per lane (0 without a dye).
+    /// In-shifting σ_se(λ) = ∫ F(λi, λ) dλi per lane (0 when not fluorescent).
     #[inline]
     pub fn sigma_se(&self, lambda: Vec4) -> Vec4 {
-        match &self.dye {
-            Some(d) => Vec4::from_array(lambda.to_array().map(|l| d.shift.sigma_se(l))) * d.scale,
+        match &self.fluorescence {
+            Some(f) => Vec4::from_array(lambda.to_array().map(|l| f.shift.sigma_se(l))) * f.scale,
             None => Vec4::ZERO,
         }
     }
 
-    /// Out-shifting σ_sa(λ) = ∫ F(λ, λo) dλo per lane (0 without a dye); see the module
-    /// docs for its relation to σ_dye.
+    /// Out-shifting σ_sa(λ) = ∫ F(λ, λo) dλo per lane (0 when not fluorescent); see the
+    /// module docs for its relation to σ_dye.
     #[inline]
     pub fn sigma_sa(&self, lambda: Vec4) -> Vec4 {
-        match &self.dye {
-            Some(d) => Vec4::from_array(lambda.to_array().map(|l| d.shift.sigma_sa(l))) * d.scale,
+        match &self.fluorescence {
+            Some(f) => Vec4::from_array(lambda.to_array().map(|l| f.shift.sigma_sa(l))) * f.scale,
             None => Vec4::ZERO,
         }
     }
 
-    /// Camera-path extinction σ̂_t = σ_a + σ_s + σ_dye per lane.
+    /// Camera-path extinction σ̂_t = σ_a + σ_s + σ_f per lane.
     #[inline]
     pub fn sigma_t_hat(&self, lambda: Vec4) -> Vec4 {
-        self.sigma_a(lambda) + self.sigma_s(lambda) + self.sigma_dye(lambda)
+        self.sigma_a(lambda) + self.sigma_s(lambda) + self.sigma_f(lambda)
     }
 
     /// Camera-path scattering σ̂_s = σ_s + σ_se per lane: the value over pdf of
@@ -216,12 +277,12 @@ impl Homogeneous {
     /// nothing scatters into λo and the lane cannot continue.
     #[inline]
     pub fn sample_shift(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<ShiftSample> {
-        match &self.dye {
-            Some(d) => d
+        match &self.fluorescence {
+            Some(f) => f
                 .shift
                 .sample_input(lambda_o, u_choice, u_lambda)
                 .map(|s| ShiftSample {
-                    value: s.value * d.scale,
+                    value: s.value * f.scale,
                     ..s
                 }),
             None => {
@@ -241,8 +302,8 @@ impl Homogeneous {
     /// F(λi, λo)/σ̂_s (nm⁻¹). 0 when σ̂_s(λo) = 0.
     #[inline]
     pub fn shift_pdf(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
-        match &self.dye {
-            Some(d) => d.shift.pdf_input(lambda_i, lambda_o, kept),
+        match &self.fluorescence {
+            Some(f) => f.shift.pdf_input(lambda_i, lambda_o, kept),
             None => {
                 let s = self.sigma_s.eval(lambda_o).nonneg();
                 if kept && s > 0.0 && s.is_finite() {
@@ -258,8 +319,8 @@ impl Homogeneous {
     /// (1/(scene-unit·nm)).
     #[inline]
     pub fn shift_value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
-        match &self.dye {
-            Some(d) => d.shift.value(lambda_i, lambda_o, kept) * d.scale,
+        match &self.fluorescence {
+            Some(f) => f.shift.value(lambda_i, lambda_o, kept) * f.scale,
             None if kept => self.sigma_s.eval(lambda_o).nonneg(),
             None => 0.0,
         }

@@ -414,7 +414,7 @@ impl Builder<'_> {
         let mut media = Named::new("medium");
         for (name, m) in &d.media {
             let key = Key::root("media").field(name);
-            media.push(name, Homogeneous::from_desc(m, &key, &self.ctx)?);
+            media.push(name, Homogeneous::from_desc(m, &key, &mut self.ctx)?);
         }
         let camera_medium = media.lookup(&Key::root("camera").field("medium"), &d.camera.medium)?;
         let mut materials = Named::new("material");
