@@ -8,12 +8,13 @@ use common::*;
 use stokes::scene::Scene;
 
 /// Every scene file of the directory.
-const VARIANTS: [&str; 6] = [
+const VARIANTS: [&str; 7] = [
     "main",
     "main-d65-no-volume",
     "main-440nm",
     "main-440nm-no-volume",
     "main-550nm",
+    "main-550nm-no-volume",
     "teaser",
 ];
 
@@ -85,7 +86,7 @@ fn the_generator_reproduces_the_committed_scenes() {
             files += 1;
         }
     }
-    assert_eq!(files, 6 + 3, "scene files and generated data files");
+    assert_eq!(files, VARIANTS.len() + 3, "scene files and generated data files");
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -133,7 +134,7 @@ fn the_volume_absorbs_at_440nm_and_turns_clear_at_550nm() {
     let (without, _) = cie_z(rear_wall("main-440nm", false));
     let t440 = with / without;
     let (g_with, se_with) = rear_wall("main-550nm", true);
-    let (g_without, se_without) = rear_wall("main-550nm", false);
+    let (g_without, se_without) = rear_wall("main-550nm-no-volume", true);
     let (a, b) = (g_with[1], g_without[1]);
     let z = (a - b) / se_with[1].hypot(se_without[1]);
     println!(

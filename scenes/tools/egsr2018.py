@@ -381,6 +381,7 @@ VARIANTS = [
     ("main-440nm.toml", "Results: the tiled box under a 440 nm lamp, with the medium (absorbs 420, emits 550)", "tiled", "440nm", (0.4, 0.99), "420-550", MAIN_REGIONS),
     ("main-440nm-no-volume.toml", "Results: the tiled box under a 440 nm lamp, without the medium", "tiled", "440nm", (0.4, 0.99), None, MAIN_REGIONS),
     ("main-550nm.toml", "Results: the tiled box under a 550 nm lamp, with the medium (which is transparent at 550 nm)", "tiled", "550nm", (0.4, 0.99), "420-550", MAIN_REGIONS),
+    ("main-550nm-no-volume.toml", "Results: the tiled box under a 550 nm lamp, without the medium", "tiled", "550nm", (0.4, 0.99), None, MAIN_REGIONS),
     ("teaser.toml", "Teaser: sticky-note spheres in a plain box filled with a medium absorbing 360 nm and emitting 620 nm", "plain", "uv-visible", (0.3, 0.999), "360-620", TEASER_REGIONS),
 ]
 
