@@ -570,3 +570,47 @@ emission = { radiance = "D65", scale = 20 }
     );
     assert_eq!(dark, 0.0, "no direct light through the opaque plate");
 }
+
+/// A medium's matrix file with a diagonal (a surface's measurement, say) loads, and the
+/// scene warns that the diagonal is not used, naming the key and the file; a clean file
+/// gives no warning.
+#[test]
+fn a_medium_matrix_with_a_diagonal_is_loaded_with_a_warning() {
+    let dir = scratch("medium-matrix-diagonal");
+    std::fs::create_dir_all(&dir).unwrap();
+    // The slab scene with its dye replaced by the matrix `file`.
+    let scene_text = |file: &str| {
+        slab_scene(1.0, 1.0)
+            .lines()
+            .map(|l| match l.starts_with("dye = ") {
+                true => format!("matrix = {{ file = \"{file}\", scale = 2.0 }}"),
+                false => l.to_string(),
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    std::fs::write(
+        dir.join("with.csv"),
+        "nm,420,470,520\n420,0.3,0.2,0.1\n470,0,0,0.3\n520,0,0,0\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("clean.csv"),
+        "nm,420,470,520\n420,0,0.2,0.1\n470,0,0,0.3\n520,0,0,0\n",
+    )
+    .unwrap();
+    let load = |file: &str| {
+        Scene::from_str(&scene_text(file), &dir.join("scene.toml"))
+            .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let warned = load("with.csv");
+    assert!(warned.has_fluorescent_media());
+    assert_eq!(warned.warnings.len(), 1, "{:?}", warned.warnings);
+    let w = &warned.warnings[0];
+    assert!(
+        w.contains("media.dye.matrix") && w.contains("with.csv") && w.contains("diagonal"),
+        "{w}"
+    );
+    assert!(load("clean.csv").warnings.is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
