@@ -224,19 +224,28 @@ fn difference_row_is_white_where_equal_red_above_blue_below() {
     let same = grey(&dir, "same.exr", 0.5);
     let above = grey(&dir, "above.exr", 0.7);
     let below = grey(&dir, "below.exr", 0.3);
+    // One firefly in 512 differences: above the 99th percentile, so not the scale.
+    let firefly = exr(&dir, "firefly.exr", None, |x, y| {
+        [if (x, y) == (3, 2) { 10.0 } else { 0.5 }; 3]
+    });
     let mut fig = figure(
         &dir,
-        &[("same", &same), ("above", &above), ("below", &below)],
+        &[
+            ("same", &same),
+            ("above", &above),
+            ("below", &below),
+            ("firefly", &firefly),
+        ],
     );
     fig.reference = Some(r.clone());
     fig.diff = true;
     let made = fig.make().unwrap();
     let png = Png::read(&fig.output);
     // The reference is appended, with its spp, and has no difference panel.
-    assert_eq!(made.layout.panels.len(), 4);
-    assert_panel(&png, &made.layout.panels[3], [188; 3], "reference");
-    assert!(made.layout.diffs[3].is_none());
-    // |difference| is 0 or 0.2: its 99th percentile is 0.2.
+    assert_eq!(made.layout.panels.len(), 5);
+    assert_panel(&png, &made.layout.panels[4], [188; 3], "reference");
+    assert!(made.layout.diffs[4].is_none());
+    // |difference| is 0 or 0.2 but for the firefly: its 99th percentile is 0.2.
     let scale = made.diff_scale.unwrap();
     assert!((scale - 0.2).abs() < 1e-6, "scale {scale}");
     let diff = |i: usize| made.layout.diffs[i].unwrap_or_else(|| panic!("no diff panel {i}"));
@@ -253,7 +262,10 @@ fn difference_row_is_white_where_equal_red_above_blue_below() {
     );
     assert_panel(&png, &diff(1), red, "above − reference");
     assert_panel(&png, &diff(2), blue, "below − reference");
-    for i in 0..3 {
+    let f = diff(3);
+    assert_eq!(png.at(f.x + 3, f.y + 2), RED, "the firefly, saturated");
+    assert_eq!(png.at(f.x + 4, f.y + 2), [255; 3], "beside the firefly");
+    for i in 0..4 {
         assert!(
             diff(i).y >= made.layout.panels[i].y + H + 16,
             "row 2 under row 1"

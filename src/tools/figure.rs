@@ -548,7 +548,7 @@ impl Figure {
             ));
         }
         let texts = Texts {
-            title: self.title.clone(),
+            title: self.title.clone().filter(|t| !t.trim().is_empty()),
             labels: images.iter().map(|i| i.label.clone()).collect(),
             diff_labels,
             notes,
