@@ -21,7 +21,7 @@ static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 
 /// Registers the embedded font as `sans-serif` (once). It fails only if the build
 /// embedded a broken font: an [`Error::Other`], as no input is to blame.
-fn register_font() -> Result<()> {
+pub(crate) fn register_font() -> Result<()> {
     static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let valid = *ONCE.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
@@ -633,6 +633,12 @@ pub fn write_png(chart: &LogLogChart, path: &Path) -> Result<()> {
         BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area(),
         chart,
     )?;
+    write_rgb8_png(path, w, h, &buf)
+}
+
+/// Writes `rgb` (8-bit sRGB, row by row, 3 bytes a pixel) as a PNG, atomically; for
+/// whatever was drawn into a bitmap buffer (charts, `stokes figure`'s strips).
+pub(crate) fn write_rgb8_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
     write_atomically(path, |tmp| {
         let file = std::fs::File::create(tmp).map_err(|e| format!("cannot create PNG: {e}"))?;
         let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
@@ -643,7 +649,7 @@ pub fn write_png(chart: &LogLogChart, path: &Path) -> Result<()> {
         let mut wr = enc
             .write_header()
             .map_err(|e| format!("cannot write PNG: {e}"))?;
-        wr.write_image_data(&buf)
+        wr.write_image_data(rgb)
             .map_err(|e| format!("cannot write PNG: {e}"))?;
         wr.finish()
             .map_err(|e| format!("cannot write PNG: {e}").into())

@@ -8,6 +8,8 @@
 //! - [`converge_chart`]: what `converge` draws (styles by meaning, other renderers' curves,
 //!   redrawing from a CSV) and how it names methods;
 //! - [`chart`]: the log–log charts `converge` draws;
+//! - [`figure`]: `stokes figure`, renders side by side as a labelled PNG strip with their
+//!   differences to a reference and a table of their errors;
 //! - [`convert`]: `stokes convert-bispectral`, a measured matrix (BFC, CSV) as CSV;
 //! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`.
 
@@ -18,6 +20,7 @@ pub mod chart;
 pub mod converge;
 pub mod converge_chart;
 pub mod convert;
+pub mod figure;
 pub mod merge;
 pub mod reference;
 pub mod submit;

@@ -10,7 +10,7 @@ use stokes::method::{Axis, Dispersion, Layout, Method, Rays, Shifting, Spectral,
 use stokes::scene::Scene;
 use stokes::spectral_exr::{self, Bins};
 use stokes::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
-use stokes::tools::converge;
+use stokes::tools::{converge, figure};
 
 #[derive(Parser)]
 #[command(
@@ -58,6 +58,11 @@ pub enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Lay renders (EXR) side by side as a labelled PNG strip, with their differences to
+    /// a reference under them and a table of their errors (RMSE, relMSE) over the image
+    /// and a scene's regions.
+    #[command(after_long_help = figure::HELP)]
+    Figure(FigureArgs),
     /// Submit a render split into parts to a batch scheduler (Slurm), with a merge job.
     Submit {
         #[command(subcommand)]
@@ -274,6 +279,53 @@ pub struct MergeArgs {
     /// missing samples by part.
     #[arg(long, value_name = "K", requires = "expect")]
     pub part_spp: Option<u64>,
+}
+
+#[derive(Args)]
+pub struct FigureArgs {
+    /// The panels, left to right: LABEL=FILE.exr, split at the last `=` (quote a label
+    /// with spaces: "mono max, 16 spp=a.exr").
+    #[arg(required = true, value_name = "LABEL=FILE.exr")]
+    pub panels: Vec<String>,
+    /// The strip (PNG).
+    #[arg(short, long, value_name = "STRIP.png")]
+    pub output: PathBuf,
+    /// The image to take differences and errors against; appended as the last panel
+    /// unless it is one of them.
+    #[arg(long, value_name = "REF.exr")]
+    pub reference: Option<PathBuf>,
+    /// The scene whose [[region]]s the error table covers besides the whole image.
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
+    /// Draw a second row: each panel's luminance minus the reference's, blue below 0,
+    /// white at 0, red above, with a colour bar.
+    #[arg(long)]
+    pub diff: bool,
+    /// The difference drawn at full red or blue (default: the 99th percentile of
+    /// |difference| over every panel).
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub diff_scale: Option<f64>,
+    /// Multiply the panels by 2^EV before tone mapping.
+    #[arg(
+        long,
+        value_name = "EV",
+        allow_negative_numbers = true,
+        default_value_t = 0.0
+    )]
+    pub exposure: f64,
+    /// Draw each image pixel as N×N pixels.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub zoom: u32,
+    /// Text above the strip.
+    #[arg(long)]
+    pub title: Option<String>,
+    /// Also write the error table (printed to stdout) to this markdown file.
+    #[arg(long, value_name = "FILE.md")]
+    pub table: Option<PathBuf>,
+    /// Also write the error table as CSV (panel, file, spp, seconds, region, pixels,
+    /// rmse, relmse).
+    #[arg(long, value_name = "FILE.csv")]
+    pub csv: Option<PathBuf>,
 }
 
 #[derive(Args)]

@@ -15,7 +15,7 @@ use stokes::integrator::render::{ProgressiveResult, Stopped};
 use stokes::method::{Method, Resolved};
 use stokes::output::{RenderFiles, RenderStats};
 use stokes::scene::Scene;
-use stokes::tools::{converge, converge_chart, merge, reference, submit};
+use stokes::tools::{converge, converge_chart, figure, merge, reference, submit};
 use stokes::Result;
 
 fn main() -> ExitCode {
@@ -39,6 +39,7 @@ fn main() -> ExitCode {
             ok(stokes::tools::convert::convert_bispectral(&input, &output)
                 .map(|report| eprintln!("{}: {report} → {}", input.display(), output.display())))
         }
+        Command::Figure(a) => ok(cmd_figure(&a)),
         Command::Submit {
             what: SubmitCommand::Slurm(a),
         } => ok(cmd_submit_slurm(&a)),
@@ -207,6 +208,52 @@ fn cmd_merge(a: &MergeArgs) -> Result<()> {
             merge::completeness(&report.ranges, start, end, a.part_spp)
         );
     }
+    Ok(())
+}
+
+fn cmd_figure(a: &FigureArgs) -> Result<()> {
+    let panels = a
+        .panels
+        .iter()
+        .map(|p| figure::Panel::parse(p))
+        .collect::<Result<Vec<_>>>()?;
+    let made = figure::Figure {
+        panels,
+        output: a.output.clone(),
+        reference: a.reference.clone(),
+        scene: a.scene.clone(),
+        diff: a.diff,
+        diff_scale: a.diff_scale,
+        exposure: a.exposure,
+        zoom: a.zoom,
+        title: a.title.clone(),
+        table: a.table.clone(),
+        csv: a.csv.clone(),
+    }
+    .make()?;
+    for w in &made.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(md) = &made.markdown {
+        print!("{md}");
+    }
+    let mut wrote = vec![a.output.display().to_string()];
+    wrote.extend(
+        a.table
+            .iter()
+            .chain(&a.csv)
+            .map(|p| p.display().to_string()),
+    );
+    let scale = made
+        .diff_scale
+        .map(|s| format!(", difference scale ±{}", figure::format_value(s)))
+        .unwrap_or_default();
+    let (w, h) = (made.layout.width, made.layout.height);
+    eprintln!(
+        "{} panels, {w}x{h} px{scale} → {}",
+        made.layout.panels.len(),
+        wrote.join(", ")
+    );
     Ok(())
 }
 
