@@ -86,7 +86,11 @@ fn the_generator_reproduces_the_committed_scenes() {
             files += 1;
         }
     }
-    assert_eq!(files, VARIANTS.len() + 3, "scene files and generated data files");
+    assert_eq!(
+        files,
+        VARIANTS.len() + 3,
+        "scene files and generated data files"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 
