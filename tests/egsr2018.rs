@@ -154,3 +154,29 @@ fn the_volume_absorbs_at_440nm_and_turns_clear_at_550nm() {
         "the medium should be clear at 550 nm: green {a} with it, {b} without (z = {z})"
     );
 }
+
+/// The media are the paper's: main σ̂_t(420 nm) = 1 per unit (0.025 × the emission tent's
+/// 40-nm sum), non-zero only on 381–459 nm; σ̂_s(550 nm) = 1, non-zero on 511–589 nm; the
+/// teaser's σ̂_t(360 nm) = 0.025 × 80 = 2.
+#[test]
+fn the_media_have_the_papers_coefficients() {
+    use glam::Vec4;
+    let main = Scene::load(&path("main")).unwrap();
+    let m = &main.media[0];
+    let st = |l: f32| m.sigma_t_hat(Vec4::splat(l)).x;
+    let ss = |l: f32| m.sigma_s_hat(Vec4::splat(l)).x;
+    assert!((st(420.0) - 1.0).abs() < 1e-4, "σ̂_t(420) = {}", st(420.0));
+    assert!((ss(550.0) - 1.0).abs() < 1e-4, "σ̂_s(550) = {}", ss(550.0));
+    for l in [375.0, 380.2, 459.8, 470.0, 550.0, 600.0] {
+        assert_eq!(st(l), 0.0, "σ̂_t({l})");
+    }
+    for l in [381.0, 459.0] {
+        assert!(st(l) > 0.0, "σ̂_t({l})");
+    }
+    for l in [420.0, 510.2, 589.8, 650.0] {
+        assert_eq!(ss(l), 0.0, "σ̂_s({l})");
+    }
+    let teaser = Scene::load(&path("teaser")).unwrap();
+    let t = teaser.media[0].sigma_t_hat(Vec4::splat(360.2)).x;
+    assert!((t - 2.0).abs() < 1e-3, "teaser σ̂_t(360) = {t}");
+}
