@@ -605,6 +605,9 @@ fn a_medium_matrix_with_a_diagonal_is_loaded_with_a_warning() {
     };
     let warned = load("with.csv");
     assert!(warned.has_fluorescent_media());
+    // The row sum at 420 nm, 0.2 + 0.1, times the scale 2 per unit.
+    let st = warned.media[0].sigma_t_hat(glam::Vec4::splat(420.0)).x;
+    assert!((st - 0.6).abs() < 1e-6, "σ̂_t(420) = {st}");
     assert_eq!(warned.warnings.len(), 1, "{:?}", warned.warnings);
     let w = &warned.warnings[0];
     assert!(
