@@ -120,7 +120,7 @@ panel results-550 main-550nm 256
 panel results-550-none main-550nm-no-volume 256
 panel results-main-2048 main 2048
 
-spp_label() { echo "$(oiiotool --info -v "$WORK/$1.exr" | sed -n 's/.*stokes:spp: "\([0-9]*\)".*/\1/p') spp"; }
+spp_label() { echo "$(spp_of "$WORK/$1.exr") spp"; }
 
 # strip OUT TITLE SCENE REFERENCE-or-"" [figure flags] -- LABEL=NAME ...: a strip of $WORK
 # panels; with a reference, its difference row and error table (appended to errors.md).

@@ -165,8 +165,7 @@ look_at = [0, 0, 0]
 up = [0, 0, 1]
 fov = 27.97
 resolution = [256, 256]
-medium = {medium}
-
+{medium_line}
 [render]
 spp = 256
 max_depth = 8                 # the paper's 8 path segments
@@ -363,9 +362,7 @@ max = [152, 110]
 
 def scene(title, box, lamp_block, medium, regions):
     text = HEADER.format(title=title)
-    text += CAMERA.format(medium='"fluorescent"' if medium else '""')
-    if not medium:
-        text = text.replace('medium = ""\n', "")
+    text += CAMERA.format(medium_line='medium = "fluorescent"\n' if medium else "")
     text += box
     if medium:
         text += medium_block(medium)
