@@ -1,8 +1,12 @@
-//! Area lights: emissive triangles, sampled in proportion to their power.
+//! Lights: emissive triangles (area lights), point, spot and directional lights
+//! ([`delta`]) and a constant environment ([`environment`]), chosen for next-event
+//! estimation in proportion to their power.
 //!
 //! Each emissive shape becomes an [`Emitter`] (spectral radiance × scale, one- or
-//! two-sided); its triangles enter one table, chosen with probability ∝ area × scale ×
-//! mean radiance and then sampled uniformly by area.
+//! two-sided); its triangles enter one selection table, each with weight area × scale ×
+//! mean radiance (its power ÷ π), and a chosen triangle is sampled uniformly by area.
+//! The other lights enter the same table after the triangles with their power ÷ π
+//! ([`desc`] has their scene syntax).
 //!
 //! ```toml
 //! [[shapes]]                    # any shape with an `emission` is an area light
@@ -14,6 +18,14 @@
 //! ```
 //! `radiance` is any spectrum (W·sr⁻¹·m⁻²·nm⁻¹); `radiance × scale` may not exceed
 //! [`MAX_RADIANCE`].
+
+pub mod delta;
+pub mod desc;
+pub mod environment;
+
+pub use delta::{DeltaKind, DeltaLight};
+pub use desc::LightDesc;
+pub use environment::Environment;
 
 use crate::error::{Detail, Key, KeyError};
 use crate::scene::Context;
@@ -62,17 +74,37 @@ impl Emitter {
         ctx: &mut Context,
     ) -> Result<Emitter, KeyError> {
         let key = shape.field("emission");
-        let scale = e.scale.unwrap_or(1.0);
+        let units = ("spectral radiance", "W·sr⁻¹·m⁻²·nm⁻¹");
+        let radiance = Emitter::checked(&e.radiance, e.scale, &key, "radiance", units, ctx)?;
+        Ok(Emitter {
+            two_sided: e.two_sided,
+            ..radiance
+        })
+    }
+
+    /// The one-sided emitter whose spectrum `spectrum` (the quantity and unit `units`, such
+    /// as spectral radiance in W·sr⁻¹·m⁻²·nm⁻¹) is given at `key.field` and multiplied by
+    /// `scale` (default 1): both checked so that a path's estimate stays finite, with a
+    /// warning for a black light or a band too narrow to be found by wavelength samples.
+    pub fn checked(
+        spectrum: &SpectrumDesc,
+        scale: Option<f32>,
+        key: &Key,
+        field: &str,
+        (quantity, unit): (&str, &str),
+        ctx: &mut Context,
+    ) -> Result<Emitter, KeyError> {
+        let scale = scale.unwrap_or(1.0);
         if !(scale.is_finite() && scale >= 0.0) {
             return Err(key.field("scale").expected("a non-negative number", scale));
         }
-        let radiance_key = key.field("radiance");
-        let radiance = Spectrum::from_desc(&e.radiance, &radiance_key, ctx, Some(Range::Radiance))?;
+        let radiance_key = key.field(field);
+        let radiance = Spectrum::from_desc(spectrum, &radiance_key, ctx, Some(Range::Radiance))?;
         let peak = radiance.max_value();
         let headroom = "(larger ones overflow 32-bit floats in a path's estimate)";
         if peak.is_nan() || peak > MAX_RADIANCE {
             return Err(radiance_key.expected(
-                format!("a spectral radiance ≤ {MAX_RADIANCE:e} W·sr⁻¹·m⁻²·nm⁻¹ {headroom}"),
+                format!("a {quantity} ≤ {MAX_RADIANCE:e} {unit} {headroom}"),
                 format!("a maximum of {peak:e}"),
             ));
         }
@@ -81,15 +113,15 @@ impl Emitter {
         if scaled > MAX_RADIANCE {
             let exact = f64::from(peak) * f64::from(scale);
             return Err(key.field("scale").expected(
-                format!("radiance × scale ≤ {MAX_RADIANCE:e} W·sr⁻¹·m⁻²·nm⁻¹ {headroom}"),
+                format!("{field} × scale ≤ {MAX_RADIANCE:e} {unit} {headroom}"),
                 format!("{peak:e} × {scale:e} = {exact:.3e}"),
             ));
         }
         if scaled == 0.0 {
             let (lo, hi) = (spectrum::LAMBDA_MIN, spectrum::LAMBDA_MAX);
             ctx.warn(
-                &key,
-                format!("radiance × scale is 0 over {lo}–{hi} nm: the light is black"),
+                key,
+                format!("{field} × scale is 0 over {lo}–{hi} nm: the light is black"),
             );
         } else if let Some(fwhm) = narrowest_band(&radiance).filter(|&w| w < 1.0) {
             ctx.warn(
@@ -100,7 +132,7 @@ impl Emitter {
         Ok(Emitter {
             radiance,
             scale,
-            two_sided: e.two_sided,
+            two_sided: false,
         })
     }
 
@@ -199,33 +231,70 @@ pub struct LightSamples<F: Float> {
     /// The paths with a usable sample (a light was chosen, the point differs from the
     /// shading point, and the light emits towards it).
     pub valid: F::Mask,
-    /// The points.
+    /// The points (for a light infinitely far, a point beyond the scene along `wi`).
     pub p: V3<F>,
-    /// The unit front normals there.
+    /// The unit front normals there (0 for lights that are not surfaces).
     pub n: V3<F>,
     /// The emitters.
     pub emitter: F::Arr<u32>,
-    /// The area densities (including the choice of triangle).
+    /// The area densities (including the choice of triangle; 0 for other lights).
     pub pdf_area: F,
     /// The unit directions from the shading points.
     pub wi: V3<F>,
-    /// The solid-angle densities at the shading points.
+    /// The solid-angle densities at the shading points; for a delta light its selection
+    /// probability × squared distance (× 1 for a directional light), so that the
+    /// emitter's spectrum over it is what arrives.
     pub pdf: F,
+    /// The paths whose light is a delta light, which no direction sampling can find.
+    pub delta: F::Mask,
+    /// What multiplies the emitter's spectrum: a spot's falloff, else 1.
+    pub falloff: F,
 }
 
-/// All area lights of a scene.
-#[derive(Debug, Clone, Default)]
+/// All lights of a scene.
+#[derive(Debug, Clone)]
 pub struct Lights {
-    /// Emitters, one per emissive shape.
+    /// Emitters, one per emissive shape or light, in the order they were added.
     pub emitters: Vec<Emitter>,
     /// Emissive triangles.
     pub triangles: Vec<LightTriangle>,
-    /// Cumulative selection probabilities of `triangles`.
+    /// Point, spot and directional lights.
+    pub delta: Vec<DeltaLight>,
+    /// The environment, if the scene has one.
+    pub environment: Option<Environment>,
+    /// Cumulative selection probabilities of the triangles, then the delta lights, then
+    /// the environment.
     cdf: Vec<f32>,
-    /// Selection probability of each triangle.
+    /// Selection probability of each, in the same order.
     pmf: Vec<f32>,
     /// For each geometry id, the index of its first light triangle.
     first_triangle: Vec<Option<u32>>,
+    /// The scene's bounding sphere: centre and radius (directional and environment light
+    /// come from beyond it).
+    bound: (Vec3, f32),
+}
+
+impl Default for Lights {
+    fn default() -> Lights {
+        Lights {
+            emitters: Vec::new(),
+            triangles: Vec::new(),
+            delta: Vec::new(),
+            environment: None,
+            cdf: Vec::new(),
+            pmf: Vec::new(),
+            first_triangle: Vec::new(),
+            bound: (Vec3::ZERO, 1.0),
+        }
+    }
+}
+
+/// One entry of the selection table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Entry {
+    Triangle(usize),
+    Delta(usize),
+    Environment,
 }
 
 impl Lights {
@@ -277,13 +346,49 @@ impl Lights {
         Ok(area)
     }
 
-    /// Builds the selection table; call once after the last [`Lights::add`].
-    pub fn finish(&mut self) {
-        let weights: Vec<f32> = self
-            .triangles
+    /// Adds a point, spot or directional light emitting `emitter`.
+    pub fn add_delta(&mut self, kind: DeltaKind, emitter: Emitter) {
+        let e = self.emitters.len() as u32;
+        self.emitters.push(emitter);
+        self.delta.push(DeltaLight { kind, emitter: e });
+    }
+
+    /// Sets the environment (a scene has at most one).
+    pub fn set_environment(&mut self, emitter: Emitter) {
+        let e = self.emitters.len() as u32;
+        self.emitters.push(emitter);
+        self.environment = Some(Environment { emitter: e });
+    }
+
+    /// Sets the box `lo`–`hi` that holds the scene: directional and environment light
+    /// come from beyond its bounding sphere, and their power is what crosses it.
+    pub fn set_bounds(&mut self, lo: Vec3, hi: Vec3) {
+        let centre = 0.5 * (lo + hi);
+        let radius = 0.5 * (hi - lo).length();
+        if centre.is_finite() && radius.is_finite() && radius > 0.0 {
+            self.bound = (centre, radius);
+        }
+    }
+
+    /// The selection weight (power ÷ π) of each entry, in table order.
+    fn weights(&self) -> Vec<f32> {
+        let mean = |e: u32| self.emitters[e as usize].mean_radiance().max(0.0);
+        let r = self.bound.1;
+        let tri = self.triangles.iter().map(|t| t.area * mean(t.emitter));
+        let delta = self
+            .delta
             .iter()
-            .map(|t| t.area * self.emitters[t.emitter as usize].mean_radiance().max(0.0))
-            .collect();
+            .map(|d| d.power_over_pi(r) * mean(d.emitter));
+        let env = self
+            .environment
+            .iter()
+            .map(|e| e.power_over_pi(r) * mean(e.emitter));
+        tri.chain(delta).chain(env).collect()
+    }
+
+    /// Builds the selection table; call once after the last light is added.
+    pub fn finish(&mut self) {
+        let weights = self.weights();
         let total: f32 = weights.iter().sum();
         self.pmf = if total > 0.0 {
             weights.iter().map(|w| w / total).collect()
@@ -306,7 +411,7 @@ impl Lights {
 
     /// Whether the scene has any light.
     pub fn is_empty(&self) -> bool {
-        self.triangles.is_empty()
+        self.triangles.is_empty() && self.delta.is_empty() && self.environment.is_none()
     }
 
     /// Samples a point on a light for next-event estimation at `p`: the point, the unit
@@ -329,7 +434,8 @@ impl Lights {
 
     /// [`Lights::sample_towards`] for the W shading points `p` of the paths in `active`:
     /// the light (chosen by power, a triangle by area) is picked path by path, the point,
-    /// direction and solid-angle pdf are computed for all paths at once.
+    /// direction and solid-angle pdf are computed for all paths at once (one path at a
+    /// time for the lights that are not triangles).
     #[inline(always)]
     pub fn sample_towards_w<F: Float>(
         &self,
@@ -345,16 +451,50 @@ impl Lights {
             pdf_area: F::splat(0.0),
             wi: V3::splat(Vec3::Z),
             pdf: F::splat(0.0),
+            delta: F::Mask::splat(false),
+            falloff: F::splat(1.0),
         };
-        if self.triangles.is_empty() {
+        if self.pmf.is_empty() {
             return s;
         }
+        let pick: F::Arr<usize> = Lanes::from_fn(|i| self.pick(u[0].get(i)));
         // Per path: the triangle (by power), if it can be sampled.
         let tri: F::Arr<Option<usize>> = Lanes::from_fn(|i| {
-            let k = self.pick(u[0].get(i));
-            let t = &self.triangles[k];
+            let k = pick[i];
+            let t = self.triangles.get(k)?;
             (active.get(i) && self.pmf[k] > 0.0 && t.area > 0.0).then_some(k)
         });
+        if !self.triangles.is_empty() {
+            self.sample_triangles(&mut s, &tri, p, u);
+        }
+        if self.triangles.len() < self.pmf.len() {
+            for i in active.iter() {
+                if let Some(o) = self.sample_other(pick[i], p.path(i), [u[1].get(i), u[2].get(i)]) {
+                    s.valid = s.valid.with(i, true);
+                    s.p.set_path(i, o.p);
+                    s.n.set_path(i, Vec3::ZERO);
+                    s.wi.set_path(i, o.wi);
+                    s.emitter[i] = o.emitter;
+                    s.pdf_area.set(i, 0.0);
+                    s.pdf.set(i, o.pdf);
+                    s.delta = s.delta.with(i, o.delta);
+                    s.falloff.set(i, o.falloff);
+                }
+            }
+        }
+        s
+    }
+
+    /// The triangle samples of [`Lights::sample_towards_w`], for the paths whose `tri`
+    /// is set.
+    #[inline(always)]
+    fn sample_triangles<F: Float>(
+        &self,
+        s: &mut LightSamples<F>,
+        tri: &F::Arr<Option<usize>>,
+        p: V3<F>,
+        u: [F; 3],
+    ) {
         let get = |i: usize| tri[i].map(|k| &self.triangles[k]);
         let p0 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.p0));
         let e1 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.e1));
@@ -379,25 +519,96 @@ impl Lights {
         let emits = cos_l.gt(zero) | (two_sided & cos_l.lt(zero));
         s.valid = chosen & d.gt(zero) & emits;
         s.pdf = s.pdf_area * d2 / cos_l.abs();
-        s
     }
 
-    /// The triangle that selection sample `u` picks.
+    /// A sample of entry `k` of the table seen from `p` if it is a delta light or the
+    /// environment and reaches `p`, from the uniforms `u`.
+    fn sample_other(&self, k: usize, p: Vec3, u: [f32; 2]) -> Option<OtherSample> {
+        let pmf = self.pmf[k];
+        if pmf <= 0.0 {
+            return None;
+        }
+        match self.entry(k) {
+            Entry::Triangle(_) => None,
+            Entry::Delta(d) => {
+                let light = &self.delta[d];
+                let seen = light.towards(p)?;
+                Some(OtherSample {
+                    p: seen.position.unwrap_or_else(|| self.beyond(p, seen.wi)),
+                    wi: seen.wi,
+                    pdf: pmf * seen.dist2,
+                    emitter: light.emitter,
+                    delta: true,
+                    falloff: seen.falloff,
+                })
+            }
+            Entry::Environment => {
+                let env = self.environment.as_ref()?;
+                let (wi, pdf) = env.sample(u);
+                Some(OtherSample {
+                    p: self.beyond(p, wi),
+                    wi,
+                    pdf: pmf * pdf,
+                    emitter: env.emitter,
+                    delta: false,
+                    falloff: 1.0,
+                })
+            }
+        }
+    }
+
+    /// A point along `wi` from `p` (inside the scene) that lies beyond the scene's
+    /// bounding sphere: where a shadow ray towards an infinitely distant light may stop.
+    fn beyond(&self, p: Vec3, wi: Vec3) -> Vec3 {
+        let (c, r) = self.bound;
+        p + wi * (2.0 * ((p - c).length() + r) + 1.0)
+    }
+
+    /// The entry of the table at index `k`.
+    fn entry(&self, k: usize) -> Entry {
+        let t = self.triangles.len();
+        if k < t {
+            Entry::Triangle(k)
+        } else if k - t < self.delta.len() {
+            Entry::Delta(k - t)
+        } else {
+            Entry::Environment
+        }
+    }
+
+    /// The entry index that selection sample `u` picks.
     #[inline(always)]
     fn pick(&self, u: f32) -> usize {
         self.cdf
             .partition_point(|&c| c <= u)
-            .min(self.triangles.len() - 1)
+            .min(self.pmf.len() - 1)
     }
 
-    /// Samples a point on a light from three uniforms.
+    /// The density in solid angle with which next-event estimation samples direction
+    /// `dir` of the environment (0 without one): how a ray that leaves the scene is
+    /// weighed against light sampling.
+    #[inline]
+    pub fn pdf_environment(&self, dir: Vec3) -> f32 {
+        match &self.environment {
+            Some(env) => self.pmf[self.pmf.len() - 1] * env.pdf(dir),
+            None => 0.0,
+        }
+    }
+
+    /// The probability that next-event estimation picks delta light `d`.
+    pub fn pmf_delta(&self, d: usize) -> f32 {
+        self.pmf[self.triangles.len() + d]
+    }
+
+    /// Samples a point on an area light from three uniforms; `None` if the uniforms
+    /// pick another kind of light.
     #[inline]
     pub fn sample(&self, u: [f32; 3]) -> Option<LightSample> {
         if self.triangles.is_empty() {
             return None;
         }
         let i = self.pick(u[0]);
-        let t = &self.triangles[i];
+        let t = self.triangles.get(i)?;
         if self.pmf[i] <= 0.0 || t.area <= 0.0 {
             return None;
         }
@@ -435,6 +646,16 @@ impl Lights {
             .flatten()
             .map(|first| self.triangles[first as usize].emitter)
     }
+}
+
+/// A sample of a light that is not a triangle ([`Lights::sample_other`]).
+struct OtherSample {
+    p: Vec3,
+    wi: Vec3,
+    pdf: f32,
+    emitter: u32,
+    delta: bool,
+    falloff: f32,
 }
 
 #[cfg(test)]

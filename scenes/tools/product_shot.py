@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Writes scenes/product-shot.toml (D65) and scenes/product-shot-uv.toml (365 nm UV lamp).
+"""Writes scenes/product-shot.toml (D65), scenes/product-shot-uv.toml (365 nm UV lamp) and
+scenes/product-shot-spot.toml (a 365 nm UV spot light under a dim constant D65 sky).
 
 A desk product shot: three coated sticky notes (yellow-green, orange and pink fluorescent
 dyes under a satin, slightly rough clear coat), a glossy coated yellow-green highlighter,
@@ -182,9 +183,26 @@ edge_v = [0, 30, 0]
 emission = { radiance = "D65", scale = 0.002 }
 """
 
+SPOT = """
+[[lights]]
+type = "spot"                          # a 365 nm UV spot from above left, on the notes
+position = [-18, 42, -32]
+look_at = [-2, 2, 0]
+angle = 22
+falloff = 8
+intensity = { narrow_band = 365, fwhm = 10 }
+scale = 1.5e6
+
+[[lights]]
+type = "environment"                   # a dim D65 sky all around
+radiance = "D65"
+scale = 0.001
+"""
+
 for name, title, light in [
     ("product-shot", "Product shot under a soft D65 panel", D65),
     ("product-shot-uv", "Product shot under a 365 nm UV lamp (narrow band) with a dim D65 fill", UV),
+    ("product-shot-spot", "Product shot under a 365 nm UV spot light and a dim constant D65 sky", SPOT),
 ]:
     with open(f"scenes/{name}.toml", "w") as f:
         f.write(HEAD.format(title=title) + light)

@@ -344,7 +344,11 @@ impl<F: Float> Paths<F> {
                 s = (active & !inside) | self.track(scene, opts, hit, inside, stats, shadow);
             }
         }
-        self.kill(s & !hit.valid);
+        let escaped = s & !hit.valid;
+        if escaped.any() && scene.lights.environment.is_some() {
+            self.escaped(scene, escaped);
+        }
+        self.kill(escaped);
         s &= hit.valid;
         if s.none() {
             return;
@@ -511,15 +515,7 @@ impl<F: Float> Paths<F> {
             return;
         }
         let le = self.emission(facing, &e, lights);
-        let lit = facing & !le.is_zero();
-        let direct = lit & !self.prev.has;
-        if direct.any() {
-            self.l
-                .set_where(direct, self.l + self.beta * le / self.ratio.sum());
-        }
-        let after = lit & self.prev.has;
-        if after.any() {
-            let pv = &self.prev;
+        let p_light = |after: F::Mask, pv: &Prev<F>| {
             let d2 = (p - pv.p).length_squared();
             let cos_l = cos.abs();
             let area = F::from_fn(|i| {
@@ -529,7 +525,51 @@ impl<F: Float> Paths<F> {
                     0.0
                 }
             });
-            let p_light = area * d2 / cos_l.max(F::splat(1e-12));
+            area * d2 / cos_l.max(F::splat(1e-12))
+        };
+        self.add_emission(facing, le, p_light);
+    }
+
+    /// The environment's radiance seen by the paths in `m`, whose rays left the scene:
+    /// weighted against light sampling at the previous vertex where there is one.
+    #[inline(never)]
+    fn escaped(&mut self, scene: &Scene, m: F::Mask) {
+        let lights = &scene.lights;
+        let Some(env) = &lights.environment else {
+            return;
+        };
+        let le = self.emission(m, &Lanes::splat(env.emitter), lights);
+        let dir = self.dir;
+        let p_light = |after: F::Mask, _: &Prev<F>| {
+            F::from_fn(|i| match after.get(i) {
+                true => lights.pdf_environment(dir.path(i).normalize()),
+                false => 0.0,
+            })
+        };
+        self.add_emission(m, le, p_light);
+    }
+
+    /// Adds the emitted radiance `le` that the paths in `m` see: in full for a camera
+    /// ray or after a specular event, else with the balance heuristic against light
+    /// sampling at the previous vertex, where `p_light` (of the paths it concerns and that
+    /// vertex) gives the solid-angle density of light sampling.
+    #[inline(always)]
+    fn add_emission(
+        &mut self,
+        m: F::Mask,
+        le: Spec<F>,
+        p_light: impl FnOnce(F::Mask, &Prev<F>) -> F,
+    ) {
+        let lit = m & !le.is_zero();
+        let direct = lit & !self.prev.has;
+        if direct.any() {
+            self.l
+                .set_where(direct, self.l + self.beta * le / self.ratio.sum());
+        }
+        let after = lit & self.prev.has;
+        if after.any() {
+            let pv = &self.prev;
+            let p_light = p_light(after, pv);
             let p_dir = pv.pdf_dir * pv.pass;
             let denom = (pv.ratio * (p_dir + Spec::broadcast(p_light))).sum();
             // beta already holds f/p_dir,0 (and the passes' T/P_0): put the hero's pdf back.
@@ -606,7 +646,9 @@ impl<F: Float> Paths<F> {
         if q.none() {
             return;
         }
-        let le = self.emission(q, &ls.emitter, &scene.lights);
+        let le = self.emission(q, &ls.emitter, &scene.lights) * Spec::broadcast(ls.falloff);
+        // No direction sampling finds a delta light: the light sample takes it all.
+        let pdf_dir = Spec::select(ls.delta, Spec::zero(), pdf_dir);
         let ray = shadow_ray(p, n, ls.p, ls.n, ls.wi);
         stats.rays += count(q);
         let base = self.beta * f * le;

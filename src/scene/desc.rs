@@ -38,6 +38,7 @@
 
 use super::shapes::ShapeDesc;
 use crate::bsdf::MaterialDesc;
+use crate::light::LightDesc;
 use crate::medium::MediumDesc;
 use crate::spectrum::SpectrumDesc;
 use serde::Deserialize;
@@ -65,6 +66,9 @@ pub struct SceneDesc {
     /// Shapes, in order: the geometry id of a shape's first mesh follows this order.
     #[serde(default)]
     pub shapes: Vec<ShapeDesc>,
+    /// Lights that are not shapes (`[[lights]]`): point, spot, directional, environment.
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
     /// Named regions of interest of the image (`[[region]]`), for `stokes converge`.
     #[serde(default, rename = "region")]
     pub regions: Vec<RegionDesc>,

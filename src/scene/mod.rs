@@ -542,10 +542,20 @@ impl Builder<'_> {
                 format!("{power:.3e} (each is, their sum is not)"),
             ));
         }
+        lights.set_bounds(lo, hi);
+        let radius = 0.5 * (hi - lo).length();
+        for (i, l) in self.desc.lights.iter().enumerate() {
+            l.add_to(
+                &mut lights,
+                &Key::root("lights").index(i),
+                &mut self.ctx,
+                radius,
+            )?;
+        }
         if lights.is_empty() {
             self.ctx.warn(
                 &shapes,
-                "no shape has an `emission`: the scene has no light and renders black",
+                "no shape has an `emission` and there are no `[[lights]]`: the scene has no light and renders black",
             );
         }
         lights.finish();

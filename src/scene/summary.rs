@@ -37,11 +37,7 @@ impl Scene {
                 g.name, g.triangles
             ));
         }
-        line(format!(
-            "lights      {} emitters, {} emissive triangles",
-            self.lights.emitters.len(),
-            self.lights.triangles.len()
-        ));
+        line(self.lights_line());
         line(format!("materials   {}", self.material_names.join(", ")));
         line(format!(
             "spectral    hwss (4 wavelengths per path){}{}",
@@ -68,6 +64,37 @@ impl Scene {
             ));
         }
         s
+    }
+
+    /// The lights by kind.
+    fn lights_line(&self) -> String {
+        use crate::light::DeltaKind;
+        let l = &self.lights;
+        let shapes = l.emitters.len() - l.delta.len() - usize::from(l.environment.is_some());
+        let mut kinds = Vec::new();
+        if shapes > 0 {
+            kinds.push(format!("{shapes} area ({} triangles)", l.triangles.len()));
+        }
+        let count = |f: fn(&DeltaKind) -> bool| l.delta.iter().filter(|d| f(&d.kind)).count();
+        for (n, what) in [
+            (count(|k| matches!(k, DeltaKind::Point { .. })), "point"),
+            (count(|k| matches!(k, DeltaKind::Spot { .. })), "spot"),
+            (
+                count(|k| matches!(k, DeltaKind::Directional { .. })),
+                "directional",
+            ),
+        ] {
+            if n > 0 {
+                kinds.push(format!("{n} {what}"));
+            }
+        }
+        if l.environment.is_some() {
+            kinds.push("1 constant environment".into());
+        }
+        if kinds.is_empty() {
+            kinds.push("none".into());
+        }
+        format!("lights      {}", kinds.join(", "))
     }
 
     fn fluorescence_line(&self) -> String {
