@@ -127,6 +127,16 @@ fn packet_and_single_rays_give_the_same_image() {
         8,
         Dispersion::Drop,
     );
+    // Point, spot, directional and environment lights: delta lights' MIS, shadow rays to
+    // beyond the scene, escaping rays.
+    modes_agree(
+        "product-shot-spot",
+        &mut scene_file("product-shot-spot.toml"),
+        24,
+        24,
+        8,
+        Dispersion::Drop,
+    );
     // Splits: children wait for a free lane.
     for d in [Dispersion::Drop, Dispersion::Split] {
         modes_agree(
