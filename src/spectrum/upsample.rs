@@ -26,13 +26,14 @@
 //! starting from its neighbour's answer; the 3 · 64² columns run in parallel (rayon) and
 //! each is computed serially, so the table is the same bytes on every run.
 //!
-//! **Cache.** The table is computed on first use (≈ 2.4 MB; see `docs/design.md` for the
-//! time) and kept in memory, and on disk as `rgb_srgb_<hash>.bin` under
-//! `$STOKES_CACHE_DIR`, else `$XDG_CACHE_HOME/stokes`, else `$HOME/.cache/stokes`; the
-//! hash covers the fit's settings, so a changed optimiser never reads an old file. Files
-//! are written to a temporary name and renamed, so parallel processes are safe; a file of
-//! the wrong size, a bad checksum or non-finite values is recomputed, and a directory
-//! that cannot be written just leaves the table in memory.
+//! **Cache.** The table (2.4 M coefficients, a 9.4 MB file) is computed on first use, in
+//! a few seconds (see `docs/design.md`), and kept in memory, and on disk as
+//! `rgb_srgb_<hash>.bin` under `$STOKES_CACHE_DIR`, else `$XDG_CACHE_HOME/stokes`, else
+//! `$HOME/.cache/stokes`; the hash covers the fit's settings, so a changed optimiser
+//! never reads an old file. Files are written to a temporary name and renamed, so
+//! parallel processes are safe; a file of the wrong size, a bad checksum or non-finite
+//! values is recomputed, and a directory that cannot be written just leaves the table in
+//! memory.
 //!
 //! **Accuracy** (`tests/upsample.rs`, against the exact integral of the evaluated f32
 //! spectrum): see the figures in `docs/design.md`.
