@@ -9,12 +9,21 @@
 //! reflectance = { wavelengths = [400, 500, 600], values = [0.1, 0.5, 0.2] }
 //! reflectance = { exr = "data/swatch.exr" }          # a spectral OpenEXR (T.<λ>nm or S0.<λ>nm)
 //! radiance = { narrow_band = 440, fwhm = 10 }         # a Gaussian line of unit integral
+//! reflectance = { rgb = [0.8, 0.2, 0.1] }             # linear sRGB as a smooth spectrum
+//! radiance = { rgb = [1, 0.9, 0.7], scale = 5 }       # an emitter's colour (× D65, Y = 1)
 //! ```
+//!
+//! An `rgb` becomes a sigmoid-polynomial spectrum ([`super::upsample`]) whose use follows
+//! the key it is given at: a reflectance (`Range::Unit`) is an albedo, each channel in
+//! [0, 1]; a radiance an illuminant (the colour times D65 of luminance 1, so `[1, 1, 1]`
+//! is as bright as a constant 1); anything else (`[spectra]` entries, coefficients) an
+//! unbounded multiple of a reflectance. `rgb_use = "albedo" | "unbounded" | "illuminant"`
+//! overrides the choice.
 //!
 //! `[spectra]` entries may name other entries (resolved in dependency order by the scene
 //! loader); every use of a spectrum says which values it takes ([`Range`]).
 
-use super::{blackbody_peak_value, csv_column, illuminant, Spectrum, Tabulated};
+use super::{blackbody_peak_value, csv_column, illuminant, RgbSpectrum, Spectrum, Tabulated};
 use super::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::error::{Key, KeyError};
 use crate::scene::Context;
@@ -62,6 +71,10 @@ pub struct SpectrumTable {
     pub narrow_band: Option<f32>,
     /// With `narrow_band`: full width at half maximum in nm.
     pub fwhm: Option<f32>,
+    /// `{ rgb = [r, g, b] }`: linear sRGB, upsampled to a smooth spectrum.
+    pub rgb: Option<Vec<f32>>,
+    /// With `rgb`: "albedo", "unbounded" or "illuminant" instead of what the key implies.
+    pub rgb_use: Option<String>,
     /// Multiplies any of the above (default 1).
     pub scale: Option<f32>,
 }
@@ -128,7 +141,7 @@ impl Spectrum {
                     )))
                 }
             },
-            SpectrumDesc::Table(t) => from_table(t, key, ctx)?,
+            SpectrumDesc::Table(t) => from_table(t, key, ctx, range)?,
         };
         if let Some(range) = range {
             check_range(key, &spec, range)?;
@@ -138,7 +151,12 @@ impl Spectrum {
 }
 
 /// [`Spectrum::from_desc`] of the table form.
-fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, KeyError> {
+fn from_table(
+    t: &SpectrumTable,
+    key: &Key,
+    ctx: &Context,
+    range: Option<Range>,
+) -> Result<Spectrum, KeyError> {
     let kinds = [
         ("constant", t.constant.is_some()),
         ("blackbody", t.blackbody.is_some()),
@@ -147,11 +165,12 @@ fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, K
         ("exr", t.exr.is_some()),
         ("wavelengths", t.wavelengths.is_some()),
         ("narrow_band", t.narrow_band.is_some()),
+        ("rgb", t.rgb.is_some()),
     ];
     let given: Vec<&str> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
     if given.len() != 1 {
         return Err(key.error(format!(
-            "expected exactly one of constant, blackbody, illuminant, csv, exr, wavelengths, narrow_band; found {}",
+            "expected exactly one of constant, blackbody, illuminant, csv, exr, wavelengths, narrow_band, rgb; found {}",
             if given.is_empty() { "none".to_string() } else { given.join(", ") }
         )));
     }
@@ -168,6 +187,7 @@ fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, K
     stray("column", t.column.is_some(), "csv")?;
     stray("values", t.values.is_some(), "wavelengths")?;
     stray("fwhm", t.fwhm.is_some(), "narrow_band")?;
+    stray("rgb_use", t.rgb_use.is_some(), "rgb")?;
     let spec = match given[0] {
         "constant" => Spectrum::Constant(t.constant.unwrap_or(0.0)),
         "blackbody" => blackbody(t, &key.field("blackbody"))?,
@@ -211,6 +231,7 @@ fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, K
             }
             Spectrum::NarrowBand { centre: c, fwhm: w }
         }
+        "rgb" => rgb(t, key, range)?,
         _ => unreachable!("one kind was given"),
     };
     Ok(match t.scale {
@@ -220,6 +241,59 @@ fn from_table(t: &SpectrumTable, key: &Key, ctx: &Context) -> Result<Spectrum, K
         Some(s) if s != 1.0 => Spectrum::Scaled(Box::new(spec), s),
         _ => spec,
     })
+}
+
+/// How an `rgb` becomes a spectrum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RgbUse {
+    Albedo,
+    Unbounded,
+    Illuminant,
+}
+
+/// `{ rgb = [r, g, b], rgb_use = … }`: three finite non-negative channels (each ≤ 1 for an
+/// albedo), upsampled as the range (or `rgb_use`) says.
+fn rgb(t: &SpectrumTable, key: &Key, range: Option<Range>) -> Result<Spectrum, KeyError> {
+    let use_ = match t.rgb_use.as_deref() {
+        None => match range {
+            Some(Range::Unit) => RgbUse::Albedo,
+            Some(Range::Radiance) => RgbUse::Illuminant,
+            Some(Range::NonNegative) | None => RgbUse::Unbounded,
+        },
+        Some("albedo") => RgbUse::Albedo,
+        Some("unbounded") => RgbUse::Unbounded,
+        Some("illuminant") => RgbUse::Illuminant,
+        Some(other) => {
+            return Err(key.field("rgb_use").expected(
+                "one of \"albedo\", \"unbounded\", \"illuminant\"",
+                format!("{other:?}"),
+            ))
+        }
+    };
+    let k = key.field("rgb");
+    let c = t.rgb.as_deref().unwrap_or_default();
+    let list = |c: &[f32]| {
+        let v: Vec<String> = c.iter().map(|x| x.to_string()).collect();
+        format!("[{}]", v.join(", "))
+    };
+    let &[r, g, b] = c else {
+        return Err(k.expected(
+            "three channels [r, g, b] (linear sRGB)",
+            format!("{} entries {}", c.len(), list(c)),
+        ));
+    };
+    if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        return Err(k.expected("finite non-negative channels", list(c)));
+    }
+    if use_ == RgbUse::Albedo && c.iter().any(|&v| v > 1.0) {
+        return Err(k.expected("each channel in [0, 1] (a reflectance)", list(c)));
+    }
+    let rgb = [r, g, b];
+    Ok(Spectrum::Rgb(match use_ {
+        RgbUse::Albedo => RgbSpectrum::albedo(rgb),
+        RgbUse::Unbounded => RgbSpectrum::unbounded(rgb),
+        RgbUse::Illuminant => RgbSpectrum::illuminant(rgb),
+    }))
 }
 
 /// `{ blackbody = K, normalise = … }`, with a temperature whose peak can normalise it.

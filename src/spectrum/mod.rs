@@ -15,6 +15,9 @@
 //!   peak (so its maximum over all wavelengths is 1) when `normalise`.
 //! - `NarrowBand { centre, fwhm }`: a Gaussian line (LED, laser) in nm⁻¹, normalised so
 //!   that ∫ s(λ) dλ = 1 (λ in nm); `scale` is then the line's total radiance in W·sr⁻¹·m⁻².
+//! - `Rgb`: a colour given as linear sRGB, made a smooth spectrum by a sigmoid of a
+//!   quadratic ([`upsample`]): an albedo in [0, 1], an unbounded multiple of one, or an
+//!   emitter's colour (times D65 with Y = 1).
 //! - `Scaled(s, k)`: `k` times `s`.
 //!
 //! Colour: [`spectrum_to_xyz`] gives the exact XYZ of a radiance spectrum (Y = 1 for a
@@ -24,6 +27,7 @@ mod blackbody;
 mod cie;
 mod curve;
 pub mod desc;
+pub mod upsample;
 mod wavelengths;
 
 use crate::error::Detail;
@@ -37,6 +41,7 @@ pub use cie::{
 };
 pub use curve::{csv_column, parse_csv, read_csv, Tabulated};
 pub use desc::{Range, SpectrumDesc, SpectrumTable};
+pub use upsample::RgbSpectrum;
 pub use wavelengths::{hwss, mono, SampledWavelengths, Wavelengths, VISIBLE_FLOOR};
 
 /// Shortest wavelength the renderer samples (nm).
@@ -65,6 +70,8 @@ pub enum Spectrum {
     /// (A line whose tails reach past 360 or 830 nm loses the part outside.) `fwhm` must be
     /// > 0 (use [`Spectrum::narrow_band`] to check).
     NarrowBand { centre: f32, fwhm: f32 },
+    /// An RGB colour as a smooth spectrum (see [`upsample`]).
+    Rgb(RgbSpectrum),
     /// `factor` times the inner spectrum.
     Scaled(Box<Spectrum>, f32),
 }
@@ -117,6 +124,10 @@ impl Spectrum {
         match self {
             _ if factor == 1.0 => self,
             Spectrum::Constant(c) => Spectrum::Constant(c * factor),
+            Spectrum::Rgb(r) if factor >= 0.0 => Spectrum::Rgb(RgbSpectrum {
+                scale: r.scale * factor,
+                ..r
+            }),
             Spectrum::Scaled(inner, k) => Spectrum::Scaled(inner, k * factor),
             other => Spectrum::Scaled(Box::new(other), factor),
         }
@@ -136,6 +147,7 @@ impl Spectrum {
                 }
             }
             Spectrum::NarrowBand { centre, fwhm } => gaussian(lambda, *centre, *fwhm),
+            Spectrum::Rgb(r) => r.eval(lambda),
             Spectrum::Scaled(inner, k) => k * inner.eval(lambda),
         }
     }
@@ -156,6 +168,7 @@ impl Spectrum {
             Spectrum::NarrowBand { centre, fwhm } => {
                 Vec4::from_array(lambda.to_array().map(|l| gaussian(l, *centre, *fwhm)))
             }
+            Spectrum::Rgb(r) => r.eval4(lambda),
             Spectrum::Scaled(inner, k) => *k * inner.eval4(lambda),
         }
     }
@@ -173,6 +186,7 @@ impl Spectrum {
                 t.eval_w(lambda[2], m),
                 t.eval_w(lambda[3], m),
             ]),
+            Spectrum::Rgb(r) => r.eval_w(lambda, m),
             Spectrum::Scaled(inner, k) => inner.eval_w(lambda, m).map(|v| F::splat(*k) * v),
             _ => Spec::from_fn(|i| match m.get(i) {
                 true => self.eval4(lambda.path(i)),
@@ -195,6 +209,7 @@ impl Spectrum {
                 self.eval(at)
             }
             Spectrum::NarrowBand { centre, .. } => self.eval(centre.clamp(LAMBDA_MIN, LAMBDA_MAX)),
+            Spectrum::Rgb(r) => r.max_value(),
             Spectrum::Scaled(inner, k) if *k >= 0.0 => k * inner.max_value(),
             Spectrum::Scaled(inner, k) => -k * inner.max_abs_value(),
         }
@@ -207,7 +222,9 @@ impl Spectrum {
             Spectrum::Constant(c) => c.abs(),
             Spectrum::Tabulated(t) => t.max_abs_over(LAMBDA_MIN, LAMBDA_MAX),
             Spectrum::Scaled(inner, k) => k.abs() * inner.max_abs_value(),
-            Spectrum::Blackbody { .. } | Spectrum::NarrowBand { .. } => self.max_value(),
+            Spectrum::Blackbody { .. } | Spectrum::NarrowBand { .. } | Spectrum::Rgb(_) => {
+                self.max_value()
+            }
         }
     }
 
@@ -270,6 +287,16 @@ mod tests {
                 fwhm: 5.0,
             },
             Spectrum::Tabulated(t).scaled(2.5),
+            Spectrum::Rgb(RgbSpectrum {
+                coeffs: [-30.0, 25.0, -4.0],
+                scale: 1.5,
+                illuminant: false,
+            }),
+            Spectrum::Rgb(RgbSpectrum {
+                coeffs: [12.0, -9.0, 1.0],
+                scale: 0.7,
+                illuminant: true,
+            }),
         ];
         let l = Vec4::new(380.0, 455.5, 533.0, 829.0);
         for s in &kinds {
@@ -317,10 +344,34 @@ mod tests {
             Spectrum::blackbody(20000.0, false).unwrap(), // peak at 145 nm: out of range
             Spectrum::narrow_band(600.0, 10.0).unwrap(),
             Spectrum::narrow_band(300.0, 100.0).unwrap(),
+            // A hump (vertex inside the range), a rising and a falling sigmoid.
+            Spectrum::Rgb(RgbSpectrum {
+                coeffs: [-30.0, 25.0, -4.0],
+                scale: 1.5,
+                illuminant: false,
+            }),
+            Spectrum::Rgb(RgbSpectrum {
+                coeffs: [2.0, 3.0, -2.0],
+                scale: 1.0,
+                illuminant: false,
+            }),
+            Spectrum::Rgb(RgbSpectrum {
+                coeffs: [0.0, -8.0, 3.0],
+                scale: 2.0,
+                illuminant: false,
+            }),
         ];
         for s in &kinds {
             check_bound(s, true);
         }
+        check_bound(
+            &Spectrum::Rgb(RgbSpectrum {
+                coeffs: [-30.0, 25.0, -4.0],
+                scale: 1.5,
+                illuminant: true,
+            }),
+            false,
+        );
         check_bound(&Spectrum::Tabulated(t).scaled(-2.0), false);
     }
 
