@@ -22,10 +22,13 @@
 pub mod delta;
 pub mod desc;
 pub mod environment;
+pub mod envmap;
+pub mod piecewise;
 
 pub use delta::{DeltaKind, DeltaLight};
 pub use desc::LightDesc;
 pub use environment::Environment;
+pub use envmap::EnvMap;
 
 use crate::error::{Detail, Key, KeyError};
 use crate::scene::Context;
@@ -249,7 +252,13 @@ pub struct LightSamples<F: Float> {
     pub delta: F::Mask,
     /// What multiplies the emitter's spectrum: a spot's falloff, else 1.
     pub falloff: F,
+    /// For the paths that sampled an environment map, the texel whose radiance arrives
+    /// (instead of the emitter's); [`NO_TEXEL`] elsewhere.
+    pub texel: F::Arr<u32>,
 }
+
+/// "Not an environment map's texel" in [`LightSamples::texel`].
+pub const NO_TEXEL: u32 = u32::MAX;
 
 /// All lights of a scene.
 #[derive(Debug, Clone)]
@@ -353,11 +362,15 @@ impl Lights {
         self.delta.push(DeltaLight { kind, emitter: e });
     }
 
-    /// Sets the environment (a scene has at most one).
-    pub fn set_environment(&mut self, emitter: Emitter) {
+    /// Sets the environment (a scene has at most one): a constant sky of `emitter`'s
+    /// radiance, or `map` with `emitter` weighing its power.
+    pub fn set_environment(&mut self, emitter: Emitter, map: Option<EnvMap>) {
         let e = self.emitters.len() as u32;
         self.emitters.push(emitter);
-        self.environment = Some(Environment { emitter: e });
+        self.environment = Some(Environment {
+            emitter: e,
+            map: map.map(std::sync::Arc::new),
+        });
     }
 
     /// Sets the box `lo`–`hi` that holds the scene: directional and environment light
@@ -453,6 +466,7 @@ impl Lights {
             pdf: F::splat(0.0),
             delta: F::Mask::splat(false),
             falloff: F::splat(1.0),
+            texel: Lanes::splat(NO_TEXEL),
         };
         if self.pmf.is_empty() {
             return s;
@@ -479,6 +493,7 @@ impl Lights {
                     s.pdf.set(i, o.pdf);
                     s.delta = s.delta.with(i, o.delta);
                     s.falloff.set(i, o.falloff);
+                    s.texel[i] = o.texel;
                 }
             }
         }
@@ -540,11 +555,12 @@ impl Lights {
                     emitter: light.emitter,
                     delta: true,
                     falloff: seen.falloff,
+                    texel: NO_TEXEL,
                 })
             }
             Entry::Environment => {
                 let env = self.environment.as_ref()?;
-                let (wi, pdf) = env.sample(u);
+                let (wi, pdf, texel) = env.sample(u)?;
                 Some(OtherSample {
                     p: self.beyond(p, wi),
                     wi,
@@ -552,6 +568,7 @@ impl Lights {
                     emitter: env.emitter,
                     delta: false,
                     falloff: 1.0,
+                    texel: texel.unwrap_or(NO_TEXEL),
                 })
             }
         }
@@ -593,6 +610,12 @@ impl Lights {
             Some(env) => self.pmf[self.pmf.len() - 1] * env.pdf(dir),
             None => 0.0,
         }
+    }
+
+    /// The environment's map, if it has one.
+    #[inline]
+    pub fn environment_map(&self) -> Option<&EnvMap> {
+        self.environment.as_ref().and_then(|e| e.map.as_deref())
     }
 
     /// The probability that next-event estimation picks delta light `d`.
@@ -656,6 +679,7 @@ struct OtherSample {
     emitter: u32,
     delta: bool,
     falloff: f32,
+    texel: u32,
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ use super::{
 };
 use crate::accel::Ray;
 use crate::bsdf::{CoatChoice, Lobe, Lobes, Material, Normals};
-use crate::light::Lights;
+use crate::light::{Lights, NO_TEXEL};
 use crate::medium::phase::Hg;
 use crate::medium::tracking;
 use crate::method::{Dispersion, Shifting, Spectral};
@@ -538,8 +538,14 @@ impl<F: Float> Paths<F> {
         let Some(env) = &lights.environment else {
             return;
         };
-        let le = self.emission(m, &Lanes::splat(env.emitter), lights);
         let dir = self.dir;
+        let le = match &env.map {
+            Some(map) => Spec::from_fn(|i| match m.get(i) {
+                true => map.radiance(map.texel(dir.path(i).normalize()), self.lambda.path(i)),
+                false => Vec4::ZERO,
+            }),
+            None => self.emission(m, &Lanes::splat(env.emitter), lights),
+        };
         let p_light = |after: F::Mask, _: &Prev<F>| {
             F::from_fn(|i| match after.get(i) {
                 true => lights.pdf_environment(dir.path(i).normalize()),
@@ -646,7 +652,12 @@ impl<F: Float> Paths<F> {
         if q.none() {
             return;
         }
-        let le = self.emission(q, &ls.emitter, &scene.lights) * Spec::broadcast(ls.falloff);
+        let mut le = self.emission(q, &ls.emitter, &scene.lights) * Spec::broadcast(ls.falloff);
+        if let Some(map) = scene.lights.environment_map() {
+            for i in q.iter().filter(|&i| ls.texel[i] != NO_TEXEL) {
+                le.set_path(i, map.radiance(ls.texel[i], self.lambda.path(i)));
+            }
+        }
         // No direction sampling finds a delta light: the light sample takes it all.
         let pdf_dir = Spec::select(ls.delta, Spec::zero(), pdf_dir);
         let ray = shadow_ray(p, n, ls.p, ls.n, ls.wi);

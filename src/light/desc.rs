@@ -23,9 +23,11 @@
 //! [[lights]]
 //! type = "environment"         # at most one: light from every direction, far away
 //! radiance = "D65"             # W·sr⁻¹·m⁻²·nm⁻¹, the same from every direction
+//! # or: map = "sky.exr"        # a lat-long RGB OpenEXR (2:1, +y up), upsampled as
+//! #                            # an illuminant: RGB (1, 1, 1) is D65 of luminance 1
 //! ```
 
-use super::{DeltaKind, Emitter, Lights};
+use super::{DeltaKind, Emitter, EnvMap, Lights};
 use crate::error::{Key, KeyError};
 use crate::scene::context::reject_keys;
 use crate::scene::shapes::finite_vec;
@@ -58,6 +60,9 @@ pub struct LightDesc {
     pub irradiance: Option<SpectrumDesc>,
     /// `environment`: the radiance from every direction, W·sr⁻¹·m⁻²·nm⁻¹.
     pub radiance: Option<SpectrumDesc>,
+    /// `environment`: a lat-long RGB OpenEXR image instead of `radiance` (relative to the
+    /// scene file).
+    pub map: Option<String>,
     /// Multiplies the spectrum (default 1).
     pub scale: Option<f32>,
 }
@@ -88,21 +93,19 @@ impl LightDesc {
                 .expected(format!("one of {}", KINDS.join(", ")), format!("{kind:?}")));
         }
         self.reject_foreign(key)?;
+        if kind == "environment" {
+            return self.environment(lights, key, ctx, scene_radius);
+        }
         let need = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3, KeyError> {
             let v = v.ok_or_else(|| key.error(format!("missing key `{k}` for a {kind} light")))?;
             finite_vec(&key.field(k), v)
         };
         let (field, spectrum, units) = match kind {
-            "point" | "spot" => (
+            "directional" => ("irradiance", &self.irradiance, ("irradiance", "W·m⁻²·nm⁻¹")),
+            _ => (
                 "intensity",
                 &self.intensity,
                 ("radiant intensity", "W·sr⁻¹·nm⁻¹"),
-            ),
-            "directional" => ("irradiance", &self.irradiance, ("irradiance", "W·m⁻²·nm⁻¹")),
-            _ => (
-                "radiance",
-                &self.radiance,
-                ("spectral radiance", "W·sr⁻¹·m⁻²·nm⁻¹"),
             ),
         };
         let spectrum = spectrum
@@ -113,33 +116,20 @@ impl LightDesc {
             "point" => DeltaKind::Point {
                 position: need("position", self.position)?,
             },
-            "spot" => self.spot(
-                key,
-                need("position", self.position)?,
-                need("look_at", self.look_at)?,
-            )?,
-            "directional" => {
+            "spot" => {
+                let (position, look_at) = (
+                    need("position", self.position)?,
+                    need("look_at", self.look_at)?,
+                );
+                self.spot(key, position, look_at)?
+            }
+            _ => {
                 let d = need("direction", self.direction)?;
                 let direction = d.try_normalize().ok_or_else(|| {
                     key.field("direction")
                         .expected("a non-zero direction", format!("{d:?}"))
                 })?;
                 DeltaKind::Directional { direction }
-            }
-            _ => {
-                if lights.environment.is_some() {
-                    return Err(key
-                        .field("type")
-                        .error("a second environment light (a scene has at most one)"));
-                }
-                check_power(
-                    key,
-                    field,
-                    &emitter,
-                    4.0 * std::f32::consts::PI * scene_radius.powi(2),
-                )?;
-                lights.set_environment(emitter);
-                return Ok(());
             }
         };
         let light = super::DeltaLight { kind, emitter: 0 };
@@ -148,6 +138,49 @@ impl LightDesc {
         Ok(())
     }
 
+    /// Sets the environment: a constant `radiance` or a `map`, one of them.
+    fn environment(
+        &self,
+        lights: &mut Lights,
+        key: &Key,
+        ctx: &mut Context,
+        scene_radius: f32,
+    ) -> Result<(), KeyError> {
+        if lights.environment.is_some() {
+            return Err(key
+                .field("type")
+                .error("a second environment light (a scene has at most one)"));
+        }
+        let per_unit = 4.0 * std::f32::consts::PI * scene_radius.powi(2);
+        let units = ("spectral radiance", "W·sr⁻¹·m⁻²·nm⁻¹");
+        match (&self.radiance, &self.map) {
+            (Some(_), Some(_)) => Err(key.error(
+                "expected one of `radiance` (a constant sky) and `map` (an image), found both",
+            )),
+            (None, None) => Err(key.error(
+                "missing key `radiance` (a constant sky) or `map` (an image) for an environment light",
+            )),
+            (Some(radiance), None) => {
+                let emitter = Emitter::checked(radiance, self.scale, key, "radiance", units, ctx)?;
+                check_power(key, "radiance", &emitter, per_unit)?;
+                lights.set_environment(emitter, None);
+                Ok(())
+            }
+            (None, Some(file)) => {
+                let scale = self.scale.unwrap_or(1.0);
+                if !(scale.is_finite() && scale >= 0.0) {
+                    return Err(key.field("scale").expected("a non-negative number", scale));
+                }
+                let map = EnvMap::load(&ctx.resolve(file), scale)
+                    .map_err(|e| key.field("map").error(e))?;
+                let mean = SpectrumDesc::Constant(f64::from(map.mean_luminance));
+                let emitter = Emitter::checked(&mean, None, key, "map", units, ctx)?;
+                check_power(key, "map", &emitter, per_unit)?;
+                lights.set_environment(emitter, Some(map));
+                Ok(())
+            }
+        }
+    }
     /// A spot at `position` aimed at `look_at`, with its cone checked.
     fn spot(&self, key: &Key, position: Vec3, look_at: Vec3) -> Result<DeltaKind, KeyError> {
         let axis = (look_at - position).try_normalize().ok_or_else(|| {
@@ -180,7 +213,7 @@ impl LightDesc {
     /// An error for the first key given that this light's type does not take.
     fn reject_foreign(&self, key: &Key) -> Result<(), KeyError> {
         let kind = self.kind.as_str();
-        let keys: [(&str, bool, &[&str]); 8] = [
+        let keys: [(&str, bool, &[&str]); 9] = [
             ("position", self.position.is_some(), &["point", "spot"]),
             ("look_at", self.look_at.is_some(), &["spot"]),
             ("angle", self.angle.is_some(), &["spot"]),
@@ -189,6 +222,7 @@ impl LightDesc {
             ("intensity", self.intensity.is_some(), &["point", "spot"]),
             ("irradiance", self.irradiance.is_some(), &["directional"]),
             ("radiance", self.radiance.is_some(), &["environment"]),
+            ("map", self.map.is_some(), &["environment"]),
         ];
         let foreign: Vec<(&str, bool)> = keys
             .iter()

@@ -1,35 +1,47 @@
 //! The environment: radiance arriving from infinitely far in every direction, seen by
-//! rays that leave the scene and sampled by next-event estimation. Today a constant
-//! spectral sky (the same radiance L(λ) from every direction), sampled uniformly over
-//! the sphere.
+//! rays that leave the scene and sampled by next-event estimation. Either a constant
+//! spectral sky (the same radiance L(λ) from every direction, sampled uniformly over the
+//! sphere) or a lat-long image ([`EnvMap`], importance-sampled).
 
+use super::envmap::EnvMap;
 use glam::Vec3;
 use std::f32::consts::PI;
+use std::sync::Arc;
 
-/// A constant environment: radiance [`super::Lights::emitters`]`[emitter]` from every
-/// direction.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The environment light.
+#[derive(Debug, Clone)]
 pub struct Environment {
-    /// Its radiance spectrum × scale.
+    /// A constant sky's radiance × scale; for a map, a constant of the map's mean
+    /// luminance × scale, which only weighs the light's power.
     pub emitter: u32,
+    /// The image, if the sky is not constant.
+    pub map: Option<Arc<EnvMap>>,
 }
 
 /// 1 / 4π: the density of a uniform direction.
 const INV_FOUR_PI: f32 = 0.25 / PI;
 
 impl Environment {
-    /// A direction from two uniforms and its solid-angle density (uniform on the sphere:
-    /// z = 1 − 2u₀, φ = 2πu₁).
-    pub fn sample(&self, u: [f32; 2]) -> (Vec3, f32) {
+    /// A direction from two uniforms, its solid-angle density and, for a map, its texel;
+    /// `None` where the map's density is zero.
+    pub fn sample(&self, u: [f32; 2]) -> Option<(Vec3, f32, Option<u32>)> {
+        if let Some(map) = &self.map {
+            return map.sample(u).map(|(d, pdf, k)| (d, pdf, Some(k)));
+        }
+        // Uniform on the sphere: z = 1 − 2u₀, φ = 2πu₁.
         let z = 1.0 - 2.0 * u[0];
         let r = (1.0 - z * z).max(0.0).sqrt();
         let (s, c) = (2.0 * PI * u[1]).sin_cos();
-        (Vec3::new(r * c, r * s, z), INV_FOUR_PI)
+        Some((Vec3::new(r * c, r * s, z), INV_FOUR_PI, None))
     }
 
-    /// The solid-angle density with which [`Environment::sample`] gives `dir`.
-    pub fn pdf(&self, _dir: Vec3) -> f32 {
-        INV_FOUR_PI
+    /// The solid-angle density with which [`Environment::sample`] gives unit direction
+    /// `dir`.
+    pub fn pdf(&self, dir: Vec3) -> f32 {
+        match &self.map {
+            Some(map) => map.pdf(dir),
+            None => INV_FOUR_PI,
+        }
     }
 
     /// Power ÷ π per unit of radiance, for choosing lights by power: a sky of radiance L
