@@ -24,6 +24,7 @@ pub mod scene;
 pub mod simd;
 pub mod spectral_exr;
 pub mod spectrum;
+pub mod texture;
 pub mod tools;
 
 pub use error::{one_line, Error};

@@ -7,6 +7,7 @@ use crate::fluoro::{self, Reradiation};
 use crate::scene::context::reject_keys;
 use crate::scene::Context;
 use crate::spectrum::{Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
+use crate::texture::{ImageTexture, Texture, Wrap};
 use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 use std::fmt;
@@ -218,6 +219,12 @@ impl Material {
                     .reflectance
                     .as_ref()
                     .ok_or_else(|| key.error("missing key `reflectance` for a diffuse material"))?;
+                let key = key.field("reflectance");
+                if let Some(texture) = texture_from_desc(r, &key, ctx)? {
+                    return Ok(Material::TexturedDiffuse {
+                        texture: Arc::new(texture),
+                    });
+                }
                 Ok(Material::Diffuse {
                     reflectance: reflectance(ctx, r)?,
                 })
@@ -350,6 +357,11 @@ fn coated(
             CoatBase::Lambertian(Arc::new(Reradiation::diagonal_only(reflectance)))
         }
         Material::FluorescentDiffuse { reradiation } => CoatBase::Lambertian(reradiation),
+        Material::TexturedDiffuse { .. } => {
+            return Err(base_key
+                .field("reflectance")
+                .error("a texture under a coat (not supported yet: give the base a spectrum)"))
+        }
         Material::Conductor { eta, k, alpha } => CoatBase::Conductor { eta, k, alpha },
         _ => {
             return Err(base_key.field("type").expected(
@@ -467,5 +479,77 @@ fn reradiation(
         _ => Err(key.error(
             "expected exactly one of `dye = { ... }` or `matrix = \"file.csv\"` (or .BFC, .exr) for a fluorescent_diffuse material",
         )),
+    }
+}
+
+/// The texture `desc` at `key` if it is one (`texture` or `checkerboard`), else `None`.
+fn texture_from_desc(
+    desc: &SpectrumDesc,
+    key: &Key,
+    ctx: &Context,
+) -> Result<Option<Texture>, KeyError> {
+    let SpectrumDesc::Table(t) = desc else {
+        return Ok(None);
+    };
+    let others = [
+        ("wavelengths", t.wavelengths.is_some()),
+        ("csv", t.csv.is_some()),
+        ("rgb", t.rgb.is_some()),
+        ("constant", t.constant.is_some()),
+        ("scale", t.scale.is_some()),
+    ];
+    let stray = |k: &str, present: bool, with: &str| match present {
+        true => Err(key
+            .field(k)
+            .error(format!("only allowed together with `{with}`"))),
+        false => Ok(()),
+    };
+    match (&t.texture, &t.checkerboard) {
+        (None, None) => {
+            stray("wrap", t.wrap.is_some(), "texture")?;
+            stray("checks", t.checks.is_some(), "checkerboard")?;
+            Ok(None)
+        }
+        (Some(_), Some(_)) => {
+            Err(key.error("expected one of `texture` and `checkerboard`, found both"))
+        }
+        (texture, checkerboard) => {
+            if let Some((k, _)) = others.iter().find(|(_, present)| *present) {
+                return Err(key.field(k).error("not a key of a texture"));
+            }
+            if let Some(file) = texture {
+                stray("checks", t.checks.is_some(), "checkerboard")?;
+                let name = t.wrap.as_deref().unwrap_or("repeat");
+                let wrap = Wrap::named(name).ok_or_else(|| {
+                    key.field("wrap").expected(
+                        format!("one of {}", Wrap::NAMES.join(", ")),
+                        format!("{name:?}"),
+                    )
+                })?;
+                let image = ImageTexture::load(&ctx.resolve(file), wrap)
+                    .map_err(|e| key.field("texture").error(e))?;
+                return Ok(Some(Texture::Image(Arc::new(image))));
+            }
+            stray("wrap", t.wrap.is_some(), "texture")?;
+            let pair = checkerboard.as_deref().unwrap_or_default();
+            let ck = key.field("checkerboard");
+            let [a, b] = pair else {
+                return Err(ck.expected("two spectra", format!("{} of them", pair.len())));
+            };
+            let one = |d: &SpectrumDesc, i: usize| {
+                Spectrum::from_desc(d, &ck.index(i), ctx, Some(Range::Unit))
+            };
+            let checks = t.checks.unwrap_or([8.0, 8.0]);
+            if !checks.iter().all(|c| c.is_finite() && *c > 0.0) {
+                return Err(key.field("checks").expected(
+                    "two positive numbers of squares per unit of u and v",
+                    format!("{checks:?}"),
+                ));
+            }
+            Ok(Some(Texture::Checkerboard {
+                spectra: [one(a, 0)?, one(b, 1)?],
+                checks,
+            }))
+        }
     }
 }

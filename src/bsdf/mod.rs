@@ -50,7 +50,8 @@ pub use microfacet::{fresnel_conductor, Frame, Ggx};
 use crate::fluoro::Reradiation;
 use crate::simd::{math, Float, Mask, Spec, V3};
 use crate::spectrum::Spectrum;
-use glam::{Vec3, Vec4};
+use crate::texture::Texture;
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
@@ -127,6 +128,11 @@ pub enum Material {
     Diffuse {
         /// Spectral albedo in [0, 1].
         reflectance: Spectrum,
+    },
+    /// Lambertian reflection with an albedo that varies over the surface.
+    TexturedDiffuse {
+        /// The albedo at the hit's texture coordinates.
+        texture: Arc<Texture>,
     },
     /// Perfect specular reflection.
     Mirror {
@@ -310,12 +316,20 @@ fn is_rough(alpha: [f32; 2]) -> bool {
 }
 
 impl Material {
-    /// The material at the wavelengths `lambda`; for a fluorescent material, the part left
-    /// after the wavelength shift has been sampled (a white Lambertian).
+    /// Whether its lobes depend on the hit's texture coordinates.
     #[inline]
-    pub fn at(&self, lambda: Vec4) -> Lobe {
+    pub fn is_textured(&self) -> bool {
+        matches!(self, Material::TexturedDiffuse { .. })
+    }
+
+    /// The material at texture coordinates `uv` and the wavelengths `lambda`; for a
+    /// fluorescent material, the part left after the wavelength shift has been sampled (a
+    /// white Lambertian).
+    #[inline]
+    pub fn at(&self, uv: Vec2, lambda: Vec4) -> Lobe {
         match self {
             Material::Diffuse { reflectance } => Lobe::Diffuse(reflectance.eval4(lambda)),
+            Material::TexturedDiffuse { texture } => Lobe::Diffuse(texture.eval4(uv, lambda)),
             Material::Mirror { reflectance } => Lobe::Mirror(reflectance.eval4(lambda)),
             Material::FluorescentDiffuse { .. } => Lobe::Diffuse(Vec4::ONE),
             Material::Dielectric { ior, ext_ior } => Lobe::Dielectric(ior.eval4(lambda), *ext_ior),
@@ -668,7 +682,8 @@ impl<F: Float> Lobes<F> {
     /// wavelengths: each material present is evaluated once, for all its paths at once.
     /// Paths on coated surfaces get the coat's reflection or the base, as `coat` says (a
     /// rough coat's reflection is a rough conductor with k = 0, its 1/P in the path's
-    /// throughput).
+    /// throughput). `uv` holds the paths' texture coordinates where a textured material
+    /// needs them.
     #[inline(always)]
     pub fn at(
         materials: &[Material],
@@ -676,6 +691,7 @@ impl<F: Float> Lobes<F> {
         active: F::Mask,
         lambda: &Spec<F>,
         coat: &CoatChoice<F>,
+        uv: &F::Arr<Vec2>,
     ) -> Lobes<F> {
         let mut l = Lobes::none();
         let mut left = active;
@@ -687,6 +703,10 @@ impl<F: Float> Lobes<F> {
                 Material::Diffuse { reflectance } => (
                     LobeKind::Diffuse,
                     LobeParams::albedo(reflectance.eval_w(lambda, m)),
+                ),
+                Material::TexturedDiffuse { texture } => (
+                    LobeKind::Diffuse,
+                    LobeParams::albedo(texture.eval_w(lambda, m, uv)),
                 ),
                 Material::Mirror { reflectance } => (
                     LobeKind::Mirror,

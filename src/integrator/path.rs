@@ -27,7 +27,7 @@ use crate::method::{Dispersion, Shifting, Spectral};
 use crate::sampler::{mix64, LazyStream, Pcg32};
 use crate::scene::Scene;
 use crate::simd::{Float, Lanes, Mask, Spec, V3};
-use glam::{Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec4};
 
 /// The lane layout of a path's result: all four camera wavelengths, or, for a path split
 /// off at a dispersive refraction, the one camera lane its lane 0 continues.
@@ -411,7 +411,8 @@ impl<F: Float> Paths<F> {
         if s.none() {
             return;
         }
-        let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda, &coat);
+        let uv = texture_coords(scene, hit, s, &mat);
+        let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda, &coat, &uv);
         self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, &nrm, wo, stats, shadow);
         self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, &nrm, wo, children);
     }
@@ -710,7 +711,8 @@ impl<F: Float> Paths<F> {
                     (1..4).any(|k| self.ratio[k].get(i) != 0.0 && bs.pdf[k].get(i) == 0.0)
                 });
             for i in apart.iter() {
-                let lobe = scene.materials[mat[i] as usize].at(self.lambda.path(i));
+                let uv = uv_at(scene, hit, i);
+                let lobe = scene.materials[mat[i] as usize].at(uv, self.lambda.path(i));
                 let geom = hit.geom[i];
                 let mut one = self.path(i);
                 one.split::<MEDIA>(
@@ -867,6 +869,31 @@ impl<F: Float> Paths<F> {
         self.org.set_where(m, p);
         self.dir.set_where(m, wi);
     }
+}
+
+/// The texture coordinates of the surface hits of the paths in `m`, where their material
+/// is textured (zero elsewhere: nothing reads them).
+#[inline(always)]
+fn texture_coords<F: Float>(
+    scene: &Scene,
+    hit: &Hits<F>,
+    m: F::Mask,
+    mat: &F::Arr<u32>,
+) -> F::Arr<Vec2> {
+    let textured = |i: usize| scene.materials[mat[i] as usize].is_textured();
+    Lanes::from_fn(|i| match m.get(i) && textured(i) {
+        true => uv_at(scene, hit, i),
+        false => Vec2::ZERO,
+    })
+}
+
+/// The texture coordinates of path `i`'s hit (zero on a mesh without them: the scene
+/// loader gives every textured shape coordinates).
+#[inline]
+fn uv_at<F: Float>(scene: &Scene, hit: &Hits<F>, i: usize) -> Vec2 {
+    let g = &scene.geometries[hit.geom[i] as usize];
+    g.uv(hit.prim[i], hit.u.get(i), hit.v.get(i))
+        .unwrap_or(Vec2::ZERO)
 }
 
 /// The normals at the surface hits of the paths in `m` (geometric normals `ng`, unit):

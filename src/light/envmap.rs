@@ -116,6 +116,11 @@ impl EnvMap {
         })
     }
 
+    /// Bytes its texels and density take.
+    pub fn memory(&self) -> usize {
+        self.texels.len() * (std::mem::size_of::<RgbSpectrum>() + 12)
+    }
+
     /// The direction of image point (x, y) ∈ [0, 1)².
     pub fn direction(x: f32, y: f32) -> Vec3 {
         let (sin_t, cos_t) = (PI * y).sin_cos();

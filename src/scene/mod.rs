@@ -500,7 +500,18 @@ impl Builder<'_> {
                 Some(e) => Some(Emitter::from_desc(e, &key, &mut self.ctx)?),
                 None => None,
             };
-            for (name, mesh) in shapes::meshes(s, &key, &self.ctx)? {
+            let textured = material.is_some_and(|m| materials.items[m as usize].is_textured());
+            for (name, mut mesh) in shapes::meshes(s, &key, &self.ctx)? {
+                if textured && mesh.uvs.is_none() {
+                    // A quad's coordinates run along its edges; other shapes need their own.
+                    if s.kind != "quad" {
+                        return Err(key.field("material").error(format!(
+                            "a textured material on a {} shape without texture coordinates (quads have them, as do smooth spheres and meshes whose files give them)",
+                            s.kind
+                        )));
+                    }
+                    mesh.uvs = Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+                }
                 if interior.is_some() {
                     mesh.check_closed_outward()
                         .map_err(|e| key.field("interior").error(e))?;

@@ -39,6 +39,7 @@ impl Scene {
         }
         line(self.lights_line());
         line(format!("materials   {}", self.material_names.join(", ")));
+        line(self.textures_line());
         line(format!(
             "spectral    hwss (4 wavelengths per path){}{}",
             if self.has_dispersion() {
@@ -66,6 +67,38 @@ impl Scene {
         s
     }
 
+    /// The textures: each image's size and memory, and the checkerboards.
+    fn textures_line(&self) -> String {
+        let mut items = Vec::new();
+        for (m, name) in self.materials.iter().zip(&self.material_names) {
+            let crate::bsdf::Material::TexturedDiffuse { texture } = m else {
+                continue;
+            };
+            items.push(match texture.image() {
+                Some(img) => format!(
+                    "{name}: {} ({}x{}, {:.1} KiB)",
+                    img.file,
+                    img.width,
+                    img.height,
+                    img.memory() as f64 / 1024.0
+                ),
+                None => format!("{name}: a checkerboard"),
+            });
+        }
+        if let Some(map) = self.lights.environment_map() {
+            items.push(format!(
+                "environment map ({}x{}, {:.1} KiB)",
+                map.width,
+                map.height,
+                map.memory() as f64 / 1024.0
+            ));
+        }
+        match items.is_empty() {
+            true => "textures    none".into(),
+            false => format!("textures    {}", items.join("; ")),
+        }
+    }
+
     /// The lights by kind.
     fn lights_line(&self) -> String {
         use crate::light::DeltaKind;
@@ -88,8 +121,10 @@ impl Scene {
                 kinds.push(format!("{n} {what}"));
             }
         }
-        if l.environment.is_some() {
-            kinds.push("1 constant environment".into());
+        match l.environment.as_ref().map(|e| e.map.is_some()) {
+            Some(true) => kinds.push("1 environment map".into()),
+            Some(false) => kinds.push("1 constant environment".into()),
+            None => {}
         }
         if kinds.is_empty() {
             kinds.push("none".into());

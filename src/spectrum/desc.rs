@@ -75,6 +75,16 @@ pub struct SpectrumTable {
     pub rgb: Option<Vec<f32>>,
     /// With `rgb`: "albedo", "unbounded" or "illuminant" instead of what the key implies.
     pub rgb_use: Option<String>,
+    /// `{ texture = "paper.png" }`: an image texture ([`crate::texture`]), only where a
+    /// material takes a texture (a diffuse reflectance).
+    pub texture: Option<String>,
+    /// With `texture`: "repeat" (default), "clamp" or "mirror".
+    pub wrap: Option<String>,
+    /// `{ checkerboard = [a, b] }`: two spectra in alternating squares, where a material
+    /// takes a texture.
+    pub checkerboard: Option<Vec<SpectrumDesc>>,
+    /// With `checkerboard`: squares per unit of u and v (default [8, 8]).
+    pub checks: Option<[f32; 2]>,
     /// Multiplies any of the above (default 1).
     pub scale: Option<f32>,
 }
@@ -167,6 +177,11 @@ fn from_table(
         ("narrow_band", t.narrow_band.is_some()),
         ("rgb", t.rgb.is_some()),
     ];
+    if t.texture.is_some() || t.checkerboard.is_some() {
+        return Err(key.error(
+            "a texture here: only a diffuse material's `reflectance` takes a texture or checkerboard",
+        ));
+    }
     let given: Vec<&str> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
     if given.len() != 1 {
         return Err(key.error(format!(
