@@ -322,11 +322,18 @@ impl Material {
         matches!(self, Material::TexturedDiffuse { .. })
     }
 
+    /// The material at the wavelengths `lambda` ([`Material::at_uv`] at texture
+    /// coordinates (0, 0), which only a textured material reads).
+    #[inline]
+    pub fn at(&self, lambda: Vec4) -> Lobe {
+        self.at_uv(Vec2::ZERO, lambda)
+    }
+
     /// The material at texture coordinates `uv` and the wavelengths `lambda`; for a
     /// fluorescent material, the part left after the wavelength shift has been sampled (a
     /// white Lambertian).
     #[inline]
-    pub fn at(&self, uv: Vec2, lambda: Vec4) -> Lobe {
+    pub fn at_uv(&self, uv: Vec2, lambda: Vec4) -> Lobe {
         match self {
             Material::Diffuse { reflectance } => Lobe::Diffuse(reflectance.eval4(lambda)),
             Material::TexturedDiffuse { texture } => Lobe::Diffuse(texture.eval4(uv, lambda)),

@@ -712,7 +712,7 @@ impl<F: Float> Paths<F> {
                 });
             for i in apart.iter() {
                 let uv = uv_at(scene, hit, i);
-                let lobe = scene.materials[mat[i] as usize].at(uv, self.lambda.path(i));
+                let lobe = scene.materials[mat[i] as usize].at_uv(uv, self.lambda.path(i));
                 let geom = hit.geom[i];
                 let mut one = self.path(i);
                 one.split::<MEDIA>(
