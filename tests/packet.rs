@@ -137,6 +137,15 @@ fn packet_and_single_rays_give_the_same_image() {
         8,
         Dispersion::Drop,
     );
+    // Textures (per-lane texture coordinates), an environment map and a fluorescent mark.
+    modes_agree(
+        "textured-print",
+        &mut scene_file("textured-print.toml"),
+        24,
+        24,
+        8,
+        Dispersion::Drop,
+    );
     // Splits: children wait for a free lane.
     for d in [Dispersion::Drop, Dispersion::Split] {
         modes_agree(
