@@ -248,8 +248,8 @@ fn read_png(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
     Ok((w, h, texels))
 }
 
-/// The RGB channels of an OpenEXR image (linear).
-fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+/// The RGB channels of an OpenEXR image (linear): width, height and texels row by row.
+pub(crate) fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
     let image = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |size, _| {

@@ -42,23 +42,9 @@ impl EnvMap {
     /// Reads the RGB channels of the lat-long EXR at `path` (× `scale`).
     pub fn load(path: &Path, scale: f32) -> Result<EnvMap, Detail> {
         let what = path.display();
-        let image = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |size, _| {
-                (
-                    size.width(),
-                    vec![[0.0f32; 3]; size.width() * size.height()],
-                )
-            },
-            |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = [r, g, b];
-            },
-        )
-        .map_err(|e| Detail::Text(format!("cannot read {what} as an RGB OpenEXR image: {e}")))?;
-        let size = image.layer_data.size;
-        let (_, rgb) = image.layer_data.channel_data.pixels;
-        EnvMap::from_rgb(size.width(), size.height(), &rgb, scale)
-            .map_err(|e| Detail::Text(format!("{what}: {e}")))
+        let (w, h, rgb) = crate::texture::read_exr(path)
+            .map_err(|e| Detail::Text(format!("cannot read {what}: {e}")))?;
+        EnvMap::from_rgb(w, h, &rgb, scale).map_err(|e| Detail::Text(format!("{what}: {e}")))
     }
 
     /// The map of `width` × `height` linear sRGB texels `rgb` (row 0 at the top) × `scale`;
