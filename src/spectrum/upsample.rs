@@ -57,11 +57,11 @@ pub const GRID_NM: f64 = 5.0;
 /// The scale node each column's walk starts from.
 pub const START: usize = 12;
 /// The fit stops once the Lab residual's length is below this.
-const TOL: f64 = 1e-4;
+const TOL: f64 = 1e-2;
 /// The fit's iteration limit per node.
 const MAX_ITERATIONS: usize = 200;
 /// Bumped whenever the fit or the file format changes (part of the cache file's hash).
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 /// First bytes of a cache file.
 const MAGIC: &[u8; 8] = b"STKRGB01";
 
@@ -227,6 +227,13 @@ pub fn scale_node(k: usize) -> f64 {
     s(s(k as f64 / (RES - 1) as f64))
 }
 
+/// The inverse of [`scale_node`] as a continuous node index in [0, 63]: smoothstep
+/// y = 3u² − 2u³ is inverted on [0, 1] by u = ½ − sin(asin(1 − 2y) / 3).
+pub fn scale_coordinate(b: f32) -> f64 {
+    let inv = |y: f64| 0.5 - ((1.0 - 2.0 * y.clamp(0.0, 1.0)).asin() / 3.0).sin();
+    inv(inv(f64::from(b))) * (RES - 1) as f64
+}
+
 fn scale_nodes() -> &'static [f32; RES] {
     static NODES: OnceLock<[f32; RES]> = OnceLock::new();
     NODES.get_or_init(|| std::array::from_fn(|k| scale_node(k) as f32))
@@ -285,7 +292,10 @@ impl Table {
         let nodes = scale_nodes();
         // The last node ≤ b (b > 0 here: a zero maximum is black, handled above).
         let k = (nodes.partition_point(|&z| z <= b) - 1).min(RES - 2);
-        let wk = ((b - nodes[k]) / (nodes[k + 1] - nodes[k])).clamp(0.0, 1.0);
+        // The weight is linear in the node index rather than in b: the fitted
+        // coefficients vary evenly from node to node, not with b (this halves the error
+        // between the dark nodes, where b grows by half from one node to the next).
+        let wk = ((scale_coordinate(b) - k as f64) as f32).clamp(0.0, 1.0);
         let j = (x as usize).min(RES - 2);
         let i = (y as usize).min(RES - 2);
         let (wj, wi) = (x - j as f32, y - i as f32);
@@ -565,8 +575,8 @@ impl Fit {
         (c, cost.sqrt())
     }
 
-    /// One scale column (l, j, i): from [`START`] up to 1, then from [`START`] down to 0,
-    /// each node starting from its neighbour's coefficients.
+    /// One scale column (l, j, i): from [`START`] (from c = 0, the constant ½) up to 1,
+    /// then from [`START`] down to 0, each node starting from its neighbour's coefficients.
     fn column(&self, l: usize, j: usize, i: usize) -> [[f32; 3]; RES] {
         let mut out = [[0.0f32; 3]; RES];
         let mut fit_from = |k: usize, c: [f64; 3]| -> [f64; 3] {
@@ -660,6 +670,11 @@ mod tests {
         assert_eq!(scale_node(0), 0.0);
         assert_eq!(scale_node(RES - 1), 1.0);
         assert!((1..RES).all(|k| scale_node(k) > scale_node(k - 1)));
+        for k in 0..RES {
+            let u = scale_coordinate(scale_node(k) as f32);
+            assert!((u - k as f64).abs() < 1e-3 * (1.0 + k as f64), "{k}: {u}");
+        }
+        assert!((scale_coordinate(1.0) - 63.0).abs() < 1e-9);
     }
 
     #[test]
