@@ -177,16 +177,15 @@ impl RgbSpectrum {
     }
 }
 
-/// s(λ) for coefficients in normalised wavelength, clamped to [0, 1] (rounding could
-/// otherwise leave it 1 ulp outside). Written once over `F` so that every width rounds
-/// the same way.
+/// s(λ) for coefficients in normalised wavelength. Written once over `F` so that every
+/// width rounds the same way. No clamp is needed: for every f32 |x| ≤ [`X_MAX`] the
+/// rounded result is in [0, 1] (a unit test checks them all).
 #[inline(always)]
 fn sigmoid_poly<F: Float>(c: [f32; 3], lambda: F) -> F {
     let t = (lambda - F::splat(LAMBDA_MIN)) * F::splat(1.0 / LAMBDA_RANGE);
     let x = (F::splat(c[0]) * t + F::splat(c[1])) * t + F::splat(c[2]);
     let x = x.clamp(-X_MAX, X_MAX);
-    let s = F::splat(0.5) + F::splat(0.5) * x / (F::splat(1.0) + x * x).sqrt();
-    s.clamp(0.0, 1.0)
+    F::splat(0.5) + F::splat(0.5) * x / (F::splat(1.0) + x * x).sqrt()
 }
 
 /// CIE D65 divided by its luminance (Y = 1 in the renderer's normalisation, where a
@@ -663,6 +662,19 @@ mod tests {
         }
         assert_eq!(sigmoid_poly([0.0, 0.0, constant_c2(0.0)], 500.0f32), 0.0);
         assert_eq!(sigmoid_poly([0.0, 0.0, constant_c2(1.0)], 500.0f32), 1.0);
+    }
+
+    #[test]
+    fn the_sigmoid_stays_in_the_unit_interval_for_every_f32() {
+        // Every f32 in [1, X_MAX] and its negative (x·x cannot overflow there). Below 1,
+        // |x| / √(1 + x²) < 0.71 leaves far more than rounding's room.
+        let mut x = 1.0f32;
+        while x <= X_MAX {
+            let up = sigmoid_poly([0.0, 0.0, x], 500.0f32);
+            let down = sigmoid_poly([0.0, 0.0, -x], 500.0f32);
+            assert!(up <= 1.0 && down >= 0.0, "{x}: {up} {down}");
+            x = f32::from_bits(x.to_bits() + 1);
+        }
     }
 
     #[test]
