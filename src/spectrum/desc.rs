@@ -39,8 +39,8 @@ pub enum SpectrumDesc {
     Constant(f64),
     /// `"white"` or `"D65"`
     Name(String),
-    /// `{ ... }`
-    Table(SpectrumTable),
+    /// `{ ... }` (boxed: it is much larger than the other forms)
+    Table(Box<SpectrumTable>),
 }
 
 /// The table form of a spectrum; exactly one of the kinds must be given.
@@ -113,7 +113,7 @@ impl<'de> Deserialize<'de> for SpectrumDesc {
             }
             fn visit_map<M: MapAccess<'de>>(self, m: M) -> Result<Self::Value, M::Error> {
                 SpectrumTable::deserialize(de::value::MapAccessDeserializer::new(m))
-                    .map(SpectrumDesc::Table)
+                    .map(|t| SpectrumDesc::Table(Box::new(t)))
             }
         }
         d.deserialize_any(V)
