@@ -147,8 +147,10 @@ fn albedo_spectra_stay_in_the_unit_interval() {
     ]);
     // Out-of-range input is clamped, not extrapolated.
     colours.extend([[1.5, 0.2, 0.1], [-0.3, 0.5, 2.0], [f32::NAN, 0.5, 0.5]]);
+    colours.extend([[f32::NAN; 3], [f32::NAN, f32::INFINITY, 0.2]]);
     for rgb in colours {
         let s = RgbSpectrum::albedo(rgb);
+        assert!(s.coeffs.iter().all(|c| c.is_finite()), "{rgb:?}: {s:?}");
         for i in 0..=940 {
             let l = LAMBDA_MIN + i as f32 * 0.5;
             let v = s.eval(l);

@@ -85,7 +85,7 @@ impl RgbSpectrum {
     /// A reflectance: `rgb` clamped to [0, 1] (NaN to 0), its values always in [0, 1].
     pub fn albedo(rgb: [f32; 3]) -> RgbSpectrum {
         RgbSpectrum {
-            coeffs: coefficients(rgb.map(|v| v.clamp(0.0, 1.0))),
+            coeffs: coefficients(rgb),
             scale: 1.0,
             illuminant: false,
         }
@@ -278,7 +278,8 @@ impl Table {
     /// The coefficients at `rgb` (channels clamped to [0, 1], NaN to 0), trilinear in the
     /// table; black and exact greys in closed form.
     pub fn coefficients(&self, rgb: [f32; 3]) -> [f32; 3] {
-        let rgb = rgb.map(|v| v.clamp(0.0, 1.0));
+        // Not `clamp`, which keeps NaN.
+        let rgb = rgb.map(|v| if v > 0.0 { v.min(1.0) } else { 0.0 });
         if rgb[0] == rgb[1] && rgb[1] == rgb[2] {
             return [0.0, 0.0, constant_c2(rgb[0])];
         }
