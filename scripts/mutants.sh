@@ -34,7 +34,8 @@ fi
 SLOW="-- --skip mono_constant_and_independent_agree"
 # group | files (globs, comma-separated) | test binaries | test harness arguments
 GROUPS_TABLE="
-light    | src/light.rs            | --lib --test light_sampling --test render_analytic |
+light    | src/light.rs, src/light/*.rs | --lib --test light_sampling --test render_analytic --test lights --test environment | -- --skip stokes_info_lists_the_lights_by_kind
+texture  | src/texture.rs          | --lib --test textures |
 bsdf     | src/bsdf/*.rs           | --lib --test bsdf_sampling --test packet |
 medium   | src/medium/*.rs         | --lib --test medium_sampling --test media_renders |
 spectrum | src/spectrum/*.rs       | --lib --test spectrum --test colorchecker |

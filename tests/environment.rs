@@ -368,6 +368,18 @@ fn bad_maps_are_rejected_naming_the_file() {
         assert!(err.contains(want), "{}: {err}", file.display());
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
+    // Texels × scale beyond what a path's estimate can hold in f32.
+    let ok = dir.join("ok.exr");
+    write_map(&ok, 8, &vec![[10.0; 3]; 32]);
+    let text = sphere_under(&format!("map = {:?}\nscale = 1e30", s(&ok)));
+    let err = match stokes::scene::Scene::from_str(&text, &root().join("scenes/inline.toml")) {
+        Ok(_) => panic!("a map of 10 × 1e30 loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("expected texels × scale ≤ 1e30") && err.contains("1e1 × 1e30"),
+        "{err}"
+    );
     let both = sphere_under("radiance = 1\nmap = \"x.exr\"");
     let err = stokes::scene::Scene::from_str(&both, &root().join("scenes/inline.toml"))
         .err()

@@ -321,6 +321,23 @@ fn light_selection_weighs_every_kind_by_power() {
     let want = 4.0 / (4.0 + 2.0 * (1.0 - 0.5));
     assert!((p_point - want).abs() < 1e-6, "{p_point} vs {want}");
     assert!((p_point + p_spot - 1.0).abs() < 1e-6);
+    // A point light against a constant sky of radiance 1: the sky weighs 4π·r² (its power
+    // 4π·πr²·L over π) for the floor's bounding radius r = ½·|(8, 0, 8)|.
+    let text = floor_scene(
+        0.5,
+        "[[lights]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = 1\n\n[[lights]]\ntype = \"environment\"\nradiance = 1\n",
+    );
+    let scene = scene_from(&text);
+    let r2 = 32.0f32;
+    let sky = 4.0 * std::f32::consts::PI * r2;
+    let want = 4.0 / (4.0 + sky);
+    let got = scene.lights.pmf_delta(0);
+    assert!(
+        (got - want).abs() < 1e-6 * want.max(1e-3),
+        "{got} vs {want}"
+    );
+    let p_sky = scene.lights.pdf_environment(Vec3::Y) * 4.0 * std::f32::consts::PI;
+    assert!((p_sky - sky / (4.0 + sky)).abs() < 1e-5, "{p_sky}");
 }
 
 #[test]
