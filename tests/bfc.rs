@@ -188,7 +188,7 @@ fn fluorescent_samples_differ_from_their_diagonal_and_whites_glow_blue() {
             "{name}: re-emission adds only {:.1} %",
             100.0 * (total / diagonal - 1.0)
         );
-        let Material::FluorescentDiffuse { reradiation } = &scene_from(&enclosure(
+        let Material::FluorescentDiffuse { reradiation, .. } = &scene_from(&enclosure(
             &format!("type = \"fluorescent_diffuse\"\nmatrix = \"{}\"", s(&path)),
             "1.0",
             8,

@@ -80,6 +80,7 @@ fn chi_square_of_directions(
 fn diffuse_lobes() -> [(&'static str, Lobe); 4] {
     let fluorescent = Material::FluorescentDiffuse {
         reradiation: Arc::new(Reradiation::diagonal_only(Spectrum::Constant(0.6))),
+        map: None,
     };
     // The base of a coated surface as seen through a dispersive, absorbing coat (the
     // coat's mirror branch is a mirror lobe, tested below).

@@ -181,7 +181,7 @@ material = "dye"
 /// L_o(λo) = D(λo)·L(λo) + ∫ F(λi, λo) L(λi) dλi for the uniform light L.
 fn closed_form(scene: &Scene, lambda_o: f32) -> f64 {
     let rr = match &scene.materials[0] {
-        Material::FluorescentDiffuse { reradiation } => reradiation.clone(),
+        Material::FluorescentDiffuse { reradiation, .. } => reradiation.clone(),
         _ => panic!("expected the fluorescent material first"),
     };
     let light = Spectrum::Scaled(Box::new(illuminant("D65").unwrap()), 0.01);
@@ -211,7 +211,7 @@ fn fluorescent_plane_matches_the_closed_form_per_wavelength() {
         // The fluorescent part matters here, so the test can tell it apart from D·L alone.
         if (505.0..=560.0).contains(&lambda_o) {
             let rr_only = match &scene.materials[0] {
-                Material::FluorescentDiffuse { reradiation } => reradiation.d(lambda_o) as f64,
+                Material::FluorescentDiffuse { reradiation, .. } => reradiation.d(lambda_o) as f64,
                 _ => unreachable!(),
             } * (0.01 * illuminant("D65").unwrap().eval(lambda_o)) as f64;
             assert!(

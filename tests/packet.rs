@@ -137,7 +137,7 @@ fn packet_and_single_rays_give_the_same_image() {
         8,
         Dispersion::Drop,
     );
-    // Textures (per-lane texture coordinates), an environment map and a fluorescent mark.
+    // Textures (per-lane texture coordinates), an environment map and a fluorescence map.
     modes_agree(
         "textured-print",
         &mut scene_file("textured-print.toml"),

@@ -185,7 +185,7 @@ fn bad_textures_are_rejected_naming_the_file_and_key() {
     let cases = [
         (dir.join("missing.png"), "cannot open"),
         (text_file, "not a readable PNG"),
-        (gray, "expected an RGB or RGBA image, found Grayscale"),
+        (gray, "expected an RGB or RGBA image, found grey"),
         (
             nan,
             "expected albedo texels in [0, 1], found [NaN, 0.5, 0.5] at texel (1, 0)",

@@ -3,10 +3,12 @@
 
 use super::{albedo, metals, CoatBase, Coated, Ior, Material, MIN_ALPHA};
 use crate::error::{Key, KeyError};
+use crate::fluoro::map::FluorescenceMap;
 use crate::fluoro::{self, Reradiation};
 use crate::scene::context::reject_keys;
 use crate::scene::Context;
 use crate::spectrum::{Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
+use crate::texture::scalar::{ScalarDesc, ScalarTexture};
 use crate::texture::{ImageTexture, Texture, Wrap};
 use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
@@ -32,6 +34,9 @@ pub struct MaterialDesc {
     /// `fluorescent_diffuse`: a measured re-radiation matrix (CSV grid or a Labsphere
     /// BFC-450 file).
     pub matrix: Option<String>,
+    /// `fluorescent_diffuse`: the dye strength in [0, 1] (default 1), a number or a map
+    /// ([`crate::texture::scalar`], [`crate::fluoro::map`]).
+    pub fluorescence: Option<ScalarDesc>,
     /// `conductor`, `dielectric`: GGX width α in [0, 1] (0: smooth), or `[αu, αv]`;
     /// `coated`: the coat's (isotropic) width.
     pub roughness: Option<RoughnessDesc>,
@@ -181,7 +186,11 @@ impl Material {
             Spectrum::from_desc(r, &key.field("reflectance"), ctx, Some(Range::Unit))
         };
         if kind != "fluorescent_diffuse" {
-            reject(&[("dye", m.dye.is_some()), ("matrix", m.matrix.is_some())])?;
+            reject(&[
+                ("dye", m.dye.is_some()),
+                ("matrix", m.matrix.is_some()),
+                ("fluorescence", m.fluorescence.is_some()),
+            ])?;
         }
         if kind != "conductor" {
             reject(&[
@@ -257,24 +266,7 @@ impl Material {
                     },
                 })
             }
-            "fluorescent_diffuse" => {
-                reject(&ior_keys)?;
-                let diagonal = m
-                    .reflectance
-                    .as_ref()
-                    .map(|r| reflectance(ctx, r))
-                    .transpose()?;
-                let rr = reradiation(m, key, diagonal, ctx)?;
-                for (l, total) in rr.energy_gain_rows() {
-                    ctx.warn(
-                        key,
-                        format!("re-radiation at {l} nm totals {total:.3} > 1 (the surface creates energy there)"),
-                    );
-                }
-                Ok(Material::FluorescentDiffuse {
-                    reradiation: Arc::new(rr),
-                })
-            }
+            "fluorescent_diffuse" => fluorescent_diffuse(m, key, ctx),
             other => {
                 let names: Vec<String> = KINDS.iter().map(|(k, _)| format!("{k:?}")).collect();
                 Err(key
@@ -356,11 +348,18 @@ fn coated(
         Material::Diffuse { reflectance } => {
             CoatBase::Lambertian(Arc::new(Reradiation::diagonal_only(reflectance)))
         }
-        Material::FluorescentDiffuse { reradiation } => CoatBase::Lambertian(reradiation),
-        Material::TexturedDiffuse { .. } => {
+        Material::FluorescentDiffuse {
+            reradiation,
+            map: None,
+        } => CoatBase::Lambertian(reradiation),
+        Material::TexturedDiffuse { .. } | Material::FluorescentDiffuse { map: Some(_), .. } => {
+            let k = match base.fluorescence.is_some() {
+                true => "fluorescence",
+                false => "reflectance",
+            };
             return Err(base_key
-                .field("reflectance")
-                .error("a texture under a coat (not supported yet: give the base a spectrum)"))
+                .field(k)
+                .error("a texture under a coat (not supported yet: give the base a spectrum)"));
         }
         Material::Conductor { eta, k, alpha } => CoatBase::Conductor { eta, k, alpha },
         _ => {
@@ -445,6 +444,72 @@ fn conductor_index(
     }
 }
 
+/// A fluorescent_diffuse material: its re-radiation and, with a textured `reflectance` or
+/// a `fluorescence` map, where its diagonal and dye strength vary ([`fluoro::map`]).
+fn fluorescent_diffuse(
+    m: &MaterialDesc,
+    key: &Key,
+    ctx: &mut Context,
+) -> Result<Material, KeyError> {
+    reject_keys(
+        key,
+        "fluorescent_diffuse",
+        "material",
+        &[("ior", m.ior.is_some()), ("ext_ior", m.ext_ior.is_some())],
+    )?;
+    let r_key = key.field("reflectance");
+    let texture = match &m.reflectance {
+        Some(r) => texture_from_desc(r, &r_key, ctx)?,
+        None => None,
+    };
+    let diagonal = match (&m.reflectance, &texture) {
+        (Some(r), None) => Some(Spectrum::from_desc(r, &r_key, ctx, Some(Range::Unit))?),
+        // The texture gives the diagonal everywhere (the loader gives the shape texture
+        // coordinates); the re-radiation's own diagonal is never read.
+        (Some(_), Some(_)) => Some(Spectrum::Constant(0.0)),
+        (None, _) => None,
+    };
+    let rr = reradiation(m, key, diagonal, ctx)?;
+    let strength = match &m.fluorescence {
+        Some(d) => Some(ScalarTexture::from_desc(
+            d,
+            &key.field("fluorescence"),
+            ctx,
+            0.0..=1.0,
+            "dye strength",
+        )?),
+        None => None,
+    };
+    if strength.is_some() && !rr.is_fluorescent() {
+        return Err(key
+            .field("fluorescence")
+            .error("a dye strength map for a material that does not fluoresce (its matrix shifts no light)"));
+    }
+    let map = match (texture, strength) {
+        (None, None) => None,
+        (diagonal, strength) => Some(FluorescenceMap {
+            diagonal,
+            strength: strength.unwrap_or(ScalarTexture::Constant(1.0)),
+        }),
+    };
+    let gains = match &map {
+        Some(map) => map.energy_gain_rows(&rr),
+        None => rr.energy_gain_rows(),
+    };
+    for (l, total) in gains {
+        ctx.warn(
+            key,
+            format!(
+                "re-radiation at {l} nm totals {total:.3} > 1 (the surface creates energy there)"
+            ),
+        );
+    }
+    Ok(Material::FluorescentDiffuse {
+        reradiation: Arc::new(rr),
+        map: map.map(Arc::new),
+    })
+}
+
 /// A fluorescent_diffuse material's re-radiation: a parametric dye over the reflectance
 /// `diagonal`, or a measured matrix (whose diagonal `reflectance` replaces, if given).
 fn reradiation(
@@ -519,13 +584,7 @@ fn texture_from_desc(
             }
             if let Some(file) = texture {
                 stray("checks", t.checks.is_some(), "checkerboard")?;
-                let name = t.wrap.as_deref().unwrap_or("repeat");
-                let wrap = Wrap::named(name).ok_or_else(|| {
-                    key.field("wrap").expected(
-                        format!("one of {}", Wrap::NAMES.join(", ")),
-                        format!("{name:?}"),
-                    )
-                })?;
+                let wrap = Wrap::from_desc(t.wrap.as_deref(), &key.field("wrap"))?;
                 let image = ImageTexture::load(&ctx.resolve(file), wrap)
                     .map_err(|e| key.field("texture").error(e))?;
                 return Ok(Some(Texture::Image(Arc::new(image))));

@@ -47,6 +47,7 @@ pub use coated::{CoatBase, Coated, CoatedConductor};
 pub use desc::{DyeDesc, IorDesc, IorTable, MaterialDesc, SellmeierDesc};
 pub use microfacet::{fresnel_conductor, Frame, Ggx};
 
+use crate::fluoro::map::FluorescenceMap;
 use crate::fluoro::Reradiation;
 use crate::simd::{math, Float, Mask, Spec, V3};
 use crate::spectrum::Spectrum;
@@ -144,6 +145,8 @@ pub enum Material {
     FluorescentDiffuse {
         /// The re-radiation function (its diagonal is the ordinary reflectance).
         reradiation: Arc<Reradiation>,
+        /// A diagonal and a dye strength that vary over the surface ([`crate::fluoro::map`]).
+        map: Option<Arc<FluorescenceMap>>,
     },
     /// Smooth dielectric interface (Fresnel reflection and refraction).
     Dielectric {
@@ -319,7 +322,11 @@ impl Material {
     /// Whether its lobes depend on the hit's texture coordinates.
     #[inline]
     pub fn is_textured(&self) -> bool {
-        matches!(self, Material::TexturedDiffuse { .. })
+        match self {
+            Material::TexturedDiffuse { .. } => true,
+            Material::FluorescentDiffuse { map: Some(m), .. } => m.varies(),
+            _ => false,
+        }
     }
 
     /// The material at the wavelengths `lambda` ([`Material::at_uv`] at texture

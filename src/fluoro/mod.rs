@@ -55,6 +55,7 @@
 pub mod bfc;
 pub mod exr;
 mod import;
+pub mod map;
 
 pub use bfc::BfcReport;
 pub use exr::ExrReport;
@@ -587,6 +588,12 @@ impl Reradiation {
     /// cell row (not clipped to the range), so for a measured matrix the total is the
     /// file's row sum. Empty for [`Self::diagonal_only`], which has no cells.
     pub fn energy_gain_rows(&self) -> Vec<(f32, f32)> {
+        self.energy_gain_rows_with(|c, out| f64::from(self.d(c)) + out)
+    }
+
+    /// [`Self::energy_gain_rows`] with the total of a row given by `total(centre, σ_sa)`
+    /// (a fluorescence map's largest D + s·σ_sa over the surface, [`map`]).
+    pub fn energy_gain_rows_with(&self, total: impl Fn(f32, f64) -> f64) -> Vec<(f32, f32)> {
         let n = self.n;
         (0..n)
             .filter_map(|i| {
@@ -595,7 +602,7 @@ impl Reradiation {
                     .map(|o| f64::from(self.f[i * n + o]))
                     .sum::<f64>()
                     * f64::from(self.cell_nm);
-                let total = (f64::from(self.d(c)) + out) as f32;
+                let total = total(c, out) as f32;
                 (total > 1.0 + 1e-5).then_some((c, total))
             })
             .collect()
@@ -607,9 +614,22 @@ impl Reradiation {
     /// what is left of `u_lambda`. `None` when D + σ_se = 0: the lane cannot continue.
     #[inline]
     pub fn sample_input(&self, lambda_o: f32, u_choice: f32, u_lambda: f32) -> Option<ShiftSample> {
-        let d = self.d(lambda_o);
+        self.sample_input_with(self.d(lambda_o), 1.0, lambda_o, u_choice, u_lambda)
+    }
+
+    /// [`Self::sample_input`] for M = d·δ + s·F: the diagonal `d` at λo (≥ 0) given by the
+    /// caller, F scaled by the dye strength `s` (a fluorescence map, [`map`]).
+    #[inline]
+    pub fn sample_input_with(
+        &self,
+        d: f32,
+        s: f32,
+        lambda_o: f32,
+        u_choice: f32,
+        u_lambda: f32,
+    ) -> Option<ShiftSample> {
         let column = self.cell(lambda_o);
-        let sse = column.map_or(0.0, |o| self.sigma_se[o]);
+        let sse = column.map_or(0.0, |o| s * self.sigma_se[o]);
         let total = d + sse;
         if !(total > 0.0 && total.is_finite()) {
             return None;
@@ -644,7 +664,7 @@ impl Reradiation {
                 _ => lambda_i = lambda_i.next_down(),
             }
         }
-        let value = self.f[i * n + o];
+        let value = s * self.f[i * n + o];
         Some(ShiftSample {
             lambda_i,
             kept: false,
@@ -658,25 +678,36 @@ impl Reradiation {
     /// for a shift to `lambda_i` the density F(λi, λo)/(D+σ_se) in nm⁻¹. 0 when D+σ_se = 0.
     #[inline]
     pub fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
-        let d = self.d(lambda_o);
-        let total = d + self.sigma_se(lambda_o);
+        self.pdf_input_with(self.d(lambda_o), 1.0, lambda_i, lambda_o, kept)
+    }
+
+    /// [`Self::pdf_input`] for M = d·δ + s·F ([`Self::sample_input_with`]).
+    #[inline]
+    pub fn pdf_input_with(&self, d: f32, s: f32, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        let total = d + s * self.sigma_se(lambda_o);
         if !(total > 0.0 && total.is_finite()) {
             return 0.0;
         }
         if kept {
             d / total
         } else {
-            self.f(lambda_i, lambda_o) / total
+            s * self.f(lambda_i, lambda_o) / total
         }
     }
 
     /// M for the event: D(λo) if kept (`lambda_i` ignored), F(λi, λo) if shifted.
     #[inline]
     pub fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        self.value_with(self.d(lambda_o), 1.0, lambda_i, lambda_o, kept)
+    }
+
+    /// [`Self::value`] for M = d·δ + s·F ([`Self::sample_input_with`]).
+    #[inline]
+    pub fn value_with(&self, d: f32, s: f32, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
         if kept {
-            self.d(lambda_o)
+            d
         } else {
-            self.f(lambda_i, lambda_o)
+            s * self.f(lambda_i, lambda_o)
         }
     }
 }

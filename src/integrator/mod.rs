@@ -27,6 +27,7 @@ pub mod shadow;
 pub mod trace;
 
 use crate::accel::Ray;
+use crate::fluoro::map::Printed;
 use crate::fluoro::Reradiation;
 use crate::medium::Homogeneous;
 use crate::method::{Resolved, Shifting};
@@ -176,6 +177,32 @@ impl ShiftModel for Reradiation {
     #[inline]
     fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
         Reradiation::value(self, lambda_i, lambda_o, kept)
+    }
+}
+
+impl ShiftModel for Printed<'_> {
+    #[inline]
+    fn sample_input(
+        &self,
+        lambda_o: f32,
+        u_choice: f32,
+        u_lambda: f32,
+    ) -> Option<crate::fluoro::ShiftSample> {
+        let (d, s) = (self.d(lambda_o), self.strength());
+        self.reradiation()
+            .sample_input_with(d, s, lambda_o, u_choice, u_lambda)
+    }
+    #[inline]
+    fn pdf_input(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        let (d, s) = (self.d(lambda_o), self.strength());
+        self.reradiation()
+            .pdf_input_with(d, s, lambda_i, lambda_o, kept)
+    }
+    #[inline]
+    fn value(&self, lambda_i: f32, lambda_o: f32, kept: bool) -> f32 {
+        let (d, s) = (self.d(lambda_o), self.strength());
+        self.reradiation()
+            .value_with(d, s, lambda_i, lambda_o, kept)
     }
 }
 

@@ -394,18 +394,23 @@ impl<F: Float> Paths<F> {
         let nrm = shading_normals(scene, hit, s, ng, wo);
         let coat = self.choose_coat(scene, &mat, s, &nrm, wo);
         for i in s.iter() {
-            let model = match &scene.materials[mat[i] as usize] {
-                Material::FluorescentDiffuse { reradiation } => Some(reradiation.as_ref()),
+            let shifted = match &scene.materials[mat[i] as usize] {
+                Material::FluorescentDiffuse {
+                    reradiation,
+                    map: None,
+                } => self.shift(i, reradiation.as_ref()),
+                Material::FluorescentDiffuse {
+                    reradiation,
+                    map: Some(map),
+                } => self.shift(i, &map.at(reradiation, uv_at(scene, hit, i))),
                 Material::Coated(c) if !coat.mirror.get(i) && c.fluoresces() => {
-                    c.reradiation().map(|b| b.as_ref())
+                    c.reradiation().is_none_or(|b| self.shift(i, b.as_ref()))
                 }
-                _ => None,
+                _ => true,
             };
-            if let Some(model) = model {
-                if !self.shift(i, model) {
-                    s = s.with(i, false);
-                    self.alive = self.alive.with(i, false);
-                }
+            if !shifted {
+                s = s.with(i, false);
+                self.alive = self.alive.with(i, false);
             }
         }
         if s.none() {

@@ -308,7 +308,7 @@ impl Scene {
     /// Whether any material fluoresces (then the shifting method matters).
     pub fn has_fluorescence(&self) -> bool {
         self.materials.iter().any(|m| match m {
-            Material::FluorescentDiffuse { reradiation } => reradiation.is_fluorescent(),
+            Material::FluorescentDiffuse { reradiation, .. } => reradiation.is_fluorescent(),
             Material::Coated(c) => c.fluoresces(),
             _ => false,
         })

@@ -69,21 +69,37 @@ impl Scene {
 
     /// The textures: each image's size and memory, and the checkerboards.
     fn textures_line(&self) -> String {
+        use crate::bsdf::Material;
+        let image = |name: &str, file: &str, w: usize, h: usize, bytes: usize| {
+            format!("{name}: {file} ({w}x{h}, {:.1} KiB)", bytes as f64 / 1024.0)
+        };
         let mut items = Vec::new();
         for (m, name) in self.materials.iter().zip(&self.material_names) {
-            let crate::bsdf::Material::TexturedDiffuse { texture } = m else {
-                continue;
+            let (texture, strength) = match m {
+                Material::TexturedDiffuse { texture } => (Some(texture.as_ref()), None),
+                Material::FluorescentDiffuse { map: Some(map), .. } => {
+                    (map.diagonal.as_ref(), Some(&map.strength))
+                }
+                _ => continue,
             };
-            items.push(match texture.image() {
-                Some(img) => format!(
-                    "{name}: {} ({}x{}, {:.1} KiB)",
-                    img.file,
+            match texture.map(|t| t.image()) {
+                Some(Some(img)) => {
+                    items.push(image(name, &img.file, img.width, img.height, img.memory()))
+                }
+                Some(None) => items.push(format!("{name}: a checkerboard")),
+                None => {}
+            }
+            match strength.filter(|s| s.varies()).map(|s| s.image()) {
+                Some(Some(img)) => items.push(image(
+                    &format!("{name} dye strength"),
+                    &img.file,
                     img.width,
                     img.height,
-                    img.memory() as f64 / 1024.0
-                ),
-                None => format!("{name}: a checkerboard"),
-            });
+                    img.memory(),
+                )),
+                Some(None) => items.push(format!("{name} dye strength: a checkerboard")),
+                None => {}
+            }
         }
         if let Some(map) = self.lights.environment_map() {
             items.push(format!(

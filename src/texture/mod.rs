@@ -13,7 +13,9 @@
 //! reflectance = { checkerboard = [0.2, "white"], checks = [8, 8] }
 //! ```
 
-use crate::error::Detail;
+pub mod scalar;
+
+use crate::error::{Detail, Key, KeyError};
 use crate::simd::{Float, Spec};
 use crate::spectrum::upsample::RgbSpectrum;
 use crate::spectrum::Spectrum;
@@ -46,6 +48,17 @@ impl Wrap {
         }
     }
 
+    /// The mode `name` given at `key` (default `repeat`).
+    pub fn from_desc(name: Option<&str>, key: &Key) -> Result<Wrap, KeyError> {
+        let name = name.unwrap_or("repeat");
+        Wrap::named(name).ok_or_else(|| {
+            key.expected(
+                format!("one of {}", Wrap::NAMES.join(", ")),
+                format!("{name:?}"),
+            )
+        })
+    }
+
     /// Texel index `i` (any integer) of a row or column of `n` texels.
     fn index(self, i: i64, n: usize) -> usize {
         let n = n as i64;
@@ -65,47 +78,55 @@ impl Wrap {
     }
 }
 
-/// An RGB image of linear sRGB albedo.
+/// An image of `N` linear channels per texel: RGB albedo ([`ImageTexture`]) or one
+/// channel of data ([`scalar::ScalarImage`]), filtered bilinearly.
 #[derive(Debug, Clone)]
-pub struct ImageTexture {
+pub struct Image<const N: usize> {
     /// Texels across.
     pub width: usize,
     /// Texels down.
     pub height: usize,
-    /// Linear sRGB, row by row from the top.
-    texels: Vec<[f32; 3]>,
+    /// Row by row from the top.
+    texels: Vec<[f32; N]>,
     /// Coordinates outside [0, 1).
     pub wrap: Wrap,
     /// The file it came from (for `stokes info`).
     pub file: String,
 }
 
-impl ImageTexture {
-    /// The image of `width` × `height` linear sRGB `texels` (row 0 at the top); an error for
-    /// a texel that is not finite or outside [0, 1] (an albedo).
-    pub fn new(
+/// An RGB image of linear sRGB albedo.
+pub type ImageTexture = Image<3>;
+
+impl<const N: usize> Image<N> {
+    /// The image of `width` × `height` `texels` (row 0 at the top); an error for a texel
+    /// that is not finite or outside `range` (`what` names the values in the message).
+    pub fn with_range(
         width: usize,
         height: usize,
-        texels: Vec<[f32; 3]>,
+        texels: Vec<[f32; N]>,
         wrap: Wrap,
         file: String,
-    ) -> Result<ImageTexture, String> {
+        range: std::ops::RangeInclusive<f32>,
+        what: &str,
+    ) -> Result<Image<N>, String> {
         assert_eq!(texels.len(), width * height);
         if width == 0 || height == 0 {
             return Err("expected an image with texels, found an empty one".into());
         }
         if let Some(k) = texels
             .iter()
-            .position(|t| !t.iter().all(|v| (0.0..=1.0).contains(v)))
+            .position(|t| !t.iter().all(|v| range.contains(v)))
         {
             return Err(format!(
-                "expected albedo texels in [0, 1], found {:?} at texel ({}, {})",
+                "expected {what} texels in [{}, {}], found {:?} at texel ({}, {})",
+                range.start(),
+                range.end(),
                 texels[k],
                 k % width,
                 k / width
             ));
         }
-        Ok(ImageTexture {
+        Ok(Image {
             width,
             height,
             texels,
@@ -114,30 +135,18 @@ impl ImageTexture {
         })
     }
 
-    /// Reads a PNG (sRGB-decoded) or an OpenEXR (linear) image, by its extension.
-    pub fn load(path: &Path, wrap: Wrap) -> Result<ImageTexture, Detail> {
-        let what = path.display().to_string();
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let (w, h, texels) = match ext.as_deref() {
-            Some("png") => read_png(path),
-            Some("exr") => read_exr(path),
-            _ => Err("expected a .png or .exr image".to_string()),
-        }
-        .map_err(|e| Detail::Text(format!("{what}: {e}")))?;
-        ImageTexture::new(w, h, texels, wrap, what.clone())
-            .map_err(|e| Detail::Text(format!("{what}: {e}")))
-    }
-
     /// Bytes the texels take.
     pub fn memory(&self) -> usize {
-        self.texels.len() * std::mem::size_of::<[f32; 3]>()
+        self.texels.len() * std::mem::size_of::<[f32; N]>()
+    }
+
+    /// Every texel, row by row from the top.
+    pub fn texels(&self) -> &[[f32; N]] {
+        &self.texels
     }
 
     /// The texel at column `x`, row `y` (wrapped).
-    fn texel(&self, x: i64, y: i64) -> [f32; 3] {
+    fn texel(&self, x: i64, y: i64) -> [f32; N] {
         let (i, j) = (
             self.wrap.index(x, self.width),
             self.wrap.index(y, self.height),
@@ -145,9 +154,9 @@ impl ImageTexture {
         self.texels[j * self.width + i]
     }
 
-    /// The bilinearly filtered linear sRGB at texture coordinates `uv`: texel centres sit
-    /// at ((i + ½)/w, 1 − (j + ½)/h).
-    pub fn rgb(&self, uv: Vec2) -> [f32; 3] {
+    /// The bilinearly filtered texel at texture coordinates `uv`: texel centres sit at
+    /// ((i + ½)/w, 1 − (j + ½)/h).
+    pub fn sample(&self, uv: Vec2) -> [f32; N] {
         let x = uv.x * self.width as f32 - 0.5;
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
@@ -160,6 +169,63 @@ impl ImageTexture {
             let bottom = c[k] + (d[k] - c[k]) * fx;
             top + (bottom - top) * fy
         })
+    }
+}
+
+impl Image<3> {
+    /// The image of `width` × `height` linear sRGB `texels` (row 0 at the top); an error for
+    /// a texel that is not finite or outside [0, 1] (an albedo).
+    pub fn new(
+        width: usize,
+        height: usize,
+        texels: Vec<[f32; 3]>,
+        wrap: Wrap,
+        file: String,
+    ) -> Result<ImageTexture, String> {
+        Image::with_range(width, height, texels, wrap, file, 0.0..=1.0, "albedo")
+    }
+
+    /// Reads a PNG (sRGB-decoded) or an OpenEXR (linear) image, by its extension.
+    pub fn load(path: &Path, wrap: Wrap) -> Result<ImageTexture, Detail> {
+        let what = path.display().to_string();
+        let texels = read_rgb(path)
+            .and_then(|(w, h, texels)| ImageTexture::new(w, h, texels, wrap, what.clone()));
+        texels.map_err(|e| Detail::Text(format!("{what}: {e}")))
+    }
+
+    /// The bilinearly filtered linear sRGB at texture coordinates `uv`.
+    pub fn rgb(&self, uv: Vec2) -> [f32; 3] {
+        self.sample(uv)
+    }
+}
+
+/// The extension of `path`, lower-case.
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+/// The linear RGB texels of a PNG (sRGB-decoded, RGB or RGBA) or an OpenEXR image.
+fn read_rgb(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+    match extension(path).as_deref() {
+        Some("png") => {
+            let png = read_png(path)?;
+            if png.channels < 3 {
+                let kind = ["grey", "grey and alpha"][png.channels - 1];
+                return Err(format!("expected an RGB or RGBA image, found {kind}"));
+            }
+            let texels = (0..png.width * png.height)
+                .map(|p| {
+                    std::array::from_fn(|c| {
+                        crate::color::srgb_decode(png.values[p * png.channels + c])
+                    })
+                })
+                .collect();
+            Ok((png.width, png.height, texels))
+        }
+        Some("exr") => read_exr(path),
+        _ => Err("expected a .png or .exr image".to_string()),
     }
 }
 
@@ -178,15 +244,50 @@ pub enum Texture {
     },
 }
 
-impl Texture {
-    /// The reflectance at `uv` and four wavelengths.
-    pub fn eval4(&self, uv: Vec2, lambda: Vec4) -> Vec4 {
+/// A texture's reflectance at one point: a spectrum of the scene, or an upsampled RGB.
+#[derive(Debug, Clone, Copy)]
+pub enum Texel<'a> {
+    /// One of a checkerboard's spectra.
+    Spectrum(&'a Spectrum),
+    /// An image's filtered RGB, upsampled as an albedo.
+    Rgb(RgbSpectrum),
+}
+
+impl Texel<'_> {
+    /// The reflectance at `lambda`.
+    #[inline]
+    pub fn eval(&self, lambda: f32) -> f32 {
         match self {
-            Texture::Image(img) => RgbSpectrum::albedo(img.rgb(uv)).eval4(lambda),
+            Texel::Spectrum(s) => s.eval(lambda),
+            Texel::Rgb(s) => s.eval(lambda),
+        }
+    }
+
+    /// The reflectance at four wavelengths.
+    #[inline]
+    pub fn eval4(&self, lambda: Vec4) -> Vec4 {
+        match self {
+            Texel::Spectrum(s) => s.eval4(lambda),
+            Texel::Rgb(s) => s.eval4(lambda),
+        }
+    }
+}
+
+impl Texture {
+    /// The reflectance at `uv`: one image lookup and upsampling, for any wavelengths.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> Texel<'_> {
+        match self {
+            Texture::Image(img) => Texel::Rgb(RgbSpectrum::albedo(img.rgb(uv))),
             Texture::Checkerboard { spectra, checks } => {
-                spectra[checker(uv, *checks)].eval4(lambda)
+                Texel::Spectrum(&spectra[checker(uv, *checks)])
             }
         }
+    }
+
+    /// The reflectance at `uv` and four wavelengths.
+    pub fn eval4(&self, uv: Vec2, lambda: Vec4) -> Vec4 {
+        self.at(uv).eval4(lambda)
     }
 
     /// The reflectance of the W paths in `m` at their coordinates `uv` and wavelengths (0
@@ -210,13 +311,23 @@ impl Texture {
 }
 
 /// Which of a checkerboard's two spectra lies at `uv`.
-fn checker(uv: Vec2, checks: [f32; 2]) -> usize {
+pub(crate) fn checker(uv: Vec2, checks: [f32; 2]) -> usize {
     let i = (uv.x * checks[0]).floor() as i64 + (uv.y * checks[1]).floor() as i64;
     i.rem_euclid(2) as usize
 }
 
-/// The texels of an RGB or RGBA PNG, sRGB-decoded (alpha ignored).
-fn read_png(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+/// A PNG's stored values, each scaled to [0, 1] (not decoded).
+struct Png {
+    width: usize,
+    height: usize,
+    /// 1 (grey), 2 (grey, alpha), 3 (RGB) or 4 (RGBA).
+    channels: usize,
+    /// Texel by texel, channel by channel.
+    values: Vec<f32>,
+}
+
+/// Reads a PNG of 8 or 16 bits per channel (palettes expanded).
+fn read_png(path: &Path) -> Result<Png, String> {
     let file = std::fs::File::open(path).map_err(|e| format!("cannot open: {e}"))?;
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND);
@@ -228,24 +339,31 @@ fn read_png(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
         .next_frame(&mut buf)
         .map_err(|e| format!("not a readable PNG: {e}"))?;
     let channels = match info.color_type {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
         png::ColorType::Rgb => 3,
         png::ColorType::Rgba => 4,
-        other => return Err(format!("expected an RGB or RGBA image, found {other:?}")),
-    };
-    let (w, h) = (info.width as usize, info.height as usize);
-    let bytes = &buf[..info.buffer_size()];
-    let value = |k: usize| -> f32 {
-        match info.bit_depth {
-            png::BitDepth::Sixteen => {
-                f32::from(u16::from_be_bytes([bytes[2 * k], bytes[2 * k + 1]])) / 65535.0
-            }
-            _ => f32::from(bytes[k]) / 255.0,
+        other => {
+            return Err(format!(
+                "expected a grey, RGB or RGBA image, found {other:?}"
+            ))
         }
     };
-    let texels = (0..w * h)
-        .map(|p| std::array::from_fn(|c| crate::color::srgb_decode(value(p * channels + c))))
-        .collect();
-    Ok((w, h, texels))
+    let (width, height) = (info.width as usize, info.height as usize);
+    let bytes = &buf[..info.buffer_size()];
+    let values = match info.bit_depth {
+        png::BitDepth::Sixteen => bytes
+            .chunks_exact(2)
+            .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])) / 65535.0)
+            .collect(),
+        _ => bytes.iter().map(|&b| f32::from(b) / 255.0).collect(),
+    };
+    Ok(Png {
+        width,
+        height,
+        channels,
+        values,
+    })
 }
 
 /// The RGB channels of an OpenEXR image (linear): width, height and texels row by row.
