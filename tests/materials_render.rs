@@ -294,6 +294,7 @@ fn coated_albedo(material: &Material, theta: f32) -> f64 {
                 eta: stokes::spectrum::Spectrum::Constant(c.ior.eval(550.0)),
                 k: stokes::spectrum::Spectrum::Constant(0.0),
                 alpha: [c.alpha; 2],
+                alpha_map: None,
             },
             theta,
         ),

@@ -98,7 +98,13 @@ fn ramp(from: f32, to: f32) -> Spectrum {
 
 fn gold(alpha: [f32; 2]) -> Lobe {
     let (eta, k) = metals::metal("Au").unwrap();
-    Material::Conductor { eta, k, alpha }.at(LAMBDA)
+    Material::Conductor {
+        eta,
+        k,
+        alpha,
+        alpha_map: None,
+    }
+    .at(LAMBDA)
 }
 
 fn conductors() -> [(&'static str, Lobe); 3] {
@@ -111,6 +117,7 @@ fn conductors() -> [(&'static str, Lobe); 3] {
                 eta: ramp(0.3, 1.8),
                 k: ramp(4.0, 2.0),
                 alpha: [0.2, 0.6],
+                alpha_map: None,
             }
             .at(LAMBDA),
         ),
@@ -122,6 +129,7 @@ fn rough_glass(ior: Ior, ext_ior: f32, alpha: [f32; 2]) -> Lobe {
         ior,
         ext_ior,
         alpha,
+        alpha_map: None,
     }
     .at(LAMBDA)
 }
@@ -780,6 +788,7 @@ fn perfect_conductor(alpha: f32) -> Lobe {
         eta: Spectrum::Constant(1.0),
         k: Spectrum::Constant(1e4),
         alpha: [alpha; 2],
+        alpha_map: None,
     }
     .at(LAMBDA)
 }

@@ -55,14 +55,48 @@ pub struct MaterialDesc {
     pub thickness: Option<f32>,
 }
 
-/// A GGX roughness: `0.2` (isotropic) or `[0.1, 0.4]` (along the two tangents).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
+/// A GGX roughness: `0.2` (isotropic), `[0.1, 0.4]` (along the two tangents), or an
+/// isotropic map `{ texture = "rough.png" }` ([`ScalarTexture`]).
+#[derive(Debug, Clone)]
 pub enum RoughnessDesc {
     /// α on both axes.
     Isotropic(f64),
     /// α along the first and the second tangent.
     Anisotropic([f64; 2]),
+    /// α on both axes, varying over the surface.
+    Map(ScalarDesc),
+}
+
+impl<'de> Deserialize<'de> for RoughnessDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RoughnessDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a GGX width α, a pair [αu, αv], or a map such as { texture = \"rough.png\" }",
+                )
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<RoughnessDesc, E> {
+                Ok(RoughnessDesc::Isotropic(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<RoughnessDesc, E> {
+                Ok(RoughnessDesc::Isotropic(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<RoughnessDesc, E> {
+                Ok(RoughnessDesc::Isotropic(v as f64))
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(self, seq: A) -> Result<RoughnessDesc, A::Error> {
+                let pair = <[f64; 2]>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(RoughnessDesc::Anisotropic(pair))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RoughnessDesc, A::Error> {
+                let d = ScalarDesc::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(RoughnessDesc::Map(d))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 impl RoughnessDesc {
@@ -71,6 +105,8 @@ impl RoughnessDesc {
         let a = match *self {
             RoughnessDesc::Isotropic(a) => [a, a],
             RoughnessDesc::Anisotropic(a) => a,
+            // The map's own widths are checked by [`Self::map`]; the nominal one is rough.
+            RoughnessDesc::Map(_) => return Ok([1.0; 2]),
         };
         let ok = |x: f64| x == 0.0 || (MIN_ALPHA..=1.0).contains(&(x as f32));
         if !(a.iter().all(|&x| ok(x)) && (a[0] == 0.0) == (a[1] == 0.0)) {
@@ -80,6 +116,16 @@ impl RoughnessDesc {
             ));
         }
         Ok(a.map(|x| x as f32))
+    }
+
+    /// The roughness map, if it is one: α per texel in [0, 1], looked up no smaller than
+    /// [`MIN_ALPHA`] ([`super::Material::alpha_at`]).
+    fn map(&self, key: &Key, ctx: &Context) -> Result<Option<Arc<ScalarTexture>>, KeyError> {
+        let RoughnessDesc::Map(d) = self else {
+            return Ok(None);
+        };
+        let map = ScalarTexture::from_desc(d, key, ctx, 0.0..=1.0, "GGX width")?;
+        Ok(Some(Arc::new(map)))
     }
 }
 
@@ -213,6 +259,15 @@ impl Material {
             Some(r) => r.alpha(&key.field("roughness"))?,
             None => [0.0; 2],
         };
+        let alpha_map = match (&m.roughness, kind) {
+            (Some(r), "conductor" | "dielectric") => r.map(&key.field("roughness"), ctx)?,
+            (Some(RoughnessDesc::Map(_)), _) => {
+                return Err(key.field("roughness").error(
+                    "a roughness map on a coat (not supported yet: give the coat one width)",
+                ))
+            }
+            _ => None,
+        };
         let ior_keys = [("ior", m.ior.is_some()), ("ext_ior", m.ext_ior.is_some())];
         match kind {
             "coated" => coated(m, key, alpha, ctx),
@@ -220,7 +275,12 @@ impl Material {
                 reject(&ior_keys)?;
                 reject(&[("reflectance", m.reflectance.is_some())])?;
                 let (eta, k) = conductor_index(m, key, ctx)?;
-                Ok(Material::Conductor { eta, k, alpha })
+                Ok(Material::Conductor {
+                    eta,
+                    k,
+                    alpha,
+                    alpha_map,
+                })
             }
             "diffuse" => {
                 reject(&ior_keys)?;
@@ -263,6 +323,7 @@ impl Material {
                         ior,
                         ext_ior,
                         alpha,
+                        alpha_map,
                     },
                 })
             }
@@ -361,7 +422,17 @@ fn coated(
                 .field(k)
                 .error("a texture under a coat (not supported yet: give the base a spectrum)"));
         }
-        Material::Conductor { eta, k, alpha } => CoatBase::Conductor { eta, k, alpha },
+        Material::Conductor {
+            eta,
+            k,
+            alpha,
+            alpha_map: None,
+        } => CoatBase::Conductor { eta, k, alpha },
+        Material::Conductor { .. } => {
+            return Err(base_key.field("roughness").error(
+                "a roughness map under a coat (not supported yet: give the base one width)",
+            ))
+        }
         _ => {
             return Err(base_key.field("type").expected(
                 "\"diffuse\", \"fluorescent_diffuse\" or \"conductor\" (the coat's models)",

@@ -51,6 +51,7 @@ use crate::fluoro::map::FluorescenceMap;
 use crate::fluoro::Reradiation;
 use crate::simd::{math, Float, Mask, Spec, V3};
 use crate::spectrum::Spectrum;
+use crate::texture::scalar::ScalarTexture;
 use crate::texture::Texture;
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
@@ -163,6 +164,8 @@ pub enum Material {
         ext_ior: f32,
         /// GGX widths along the two tangents.
         alpha: [f32; 2],
+        /// An isotropic width that varies over the surface, instead of `alpha`.
+        alpha_map: Option<Arc<ScalarTexture>>,
     },
     /// A metal: Fresnel reflection with a complex index η + ik, smooth (`alpha` zero, a
     /// Dirac reflection) or rough (GGX, [`rough`]).
@@ -173,6 +176,9 @@ pub enum Material {
         k: Spectrum,
         /// GGX widths along the two tangents; [0, 0] for a smooth conductor.
         alpha: [f32; 2],
+        /// An isotropic width that varies over the surface, instead of `alpha` (which is
+        /// then rough).
+        alpha_map: Option<Arc<ScalarTexture>>,
     },
     /// A smooth or rough clear coat over a Lambertian (possibly fluorescent) or a
     /// conductor base ([`coated`]).
@@ -318,6 +324,22 @@ fn is_rough(alpha: [f32; 2]) -> bool {
     alpha[0] >= MIN_ALPHA && alpha[1] >= MIN_ALPHA
 }
 
+/// A roughness map's GGX width at `uv`: the texel value, no smaller than [`MIN_ALPHA`]
+/// (a map describes rough surfaces only; below that a lobe is numerically a spike).
+#[inline]
+fn map_alpha(map: &ScalarTexture, uv: Vec2) -> f32 {
+    map.eval(uv).max(MIN_ALPHA)
+}
+
+/// The widths at `uv`: the map's (isotropic) if there is one, else `alpha`.
+#[inline]
+fn alpha_at(alpha: &[f32; 2], map: &Option<Arc<ScalarTexture>>, uv: Vec2) -> [f32; 2] {
+    match map {
+        Some(map) => [map_alpha(map, uv); 2],
+        None => *alpha,
+    }
+}
+
 impl Material {
     /// Whether its lobes depend on the hit's texture coordinates.
     #[inline]
@@ -325,6 +347,9 @@ impl Material {
         match self {
             Material::TexturedDiffuse { .. } => true,
             Material::FluorescentDiffuse { map: Some(m), .. } => m.varies(),
+            Material::RoughDielectric { alpha_map, .. } | Material::Conductor { alpha_map, .. } => {
+                alpha_map.as_ref().is_some_and(|m| m.varies())
+            }
             _ => false,
         }
     }
@@ -351,10 +376,18 @@ impl Material {
                 ior,
                 ext_ior,
                 alpha,
-            } => Lobe::RoughDielectric(ior.eval4(lambda), *ext_ior, *alpha),
-            Material::Conductor { eta, k, alpha } => {
-                Lobe::Conductor(eta.eval4(lambda), k.eval4(lambda), *alpha)
-            }
+                alpha_map,
+            } => Lobe::RoughDielectric(ior.eval4(lambda), *ext_ior, alpha_at(alpha, alpha_map, uv)),
+            Material::Conductor {
+                eta,
+                k,
+                alpha,
+                alpha_map,
+            } => Lobe::Conductor(
+                eta.eval4(lambda),
+                k.eval4(lambda),
+                alpha_at(alpha, alpha_map, uv),
+            ),
             Material::Coated(c) => {
                 let (coat_eta, tau) = (c.ior.eval4(lambda), c.tau.eval4(lambda));
                 match &c.base {
@@ -647,6 +680,19 @@ impl<F: Float> Lobes<F> {
         }
     }
 
+    /// The GGX widths of the paths in `m` from their material's roughness map, if it has
+    /// one, at their texture coordinates `uv`.
+    #[inline(always)]
+    fn set_alpha_map(&mut self, m: F::Mask, map: &Option<Arc<ScalarTexture>>, uv: &F::Arr<Vec2>) {
+        if let Some(map) = map {
+            let a = F::from_fn(|i| match m.get(i) {
+                true => map_alpha(map, uv[i]),
+                false => 1.0,
+            });
+            self.alpha = [0, 1].map(|k| F::select(m, a, self.alpha[k]));
+        }
+    }
+
     /// The lobes of the paths in `active`: path i's is `lobe(i)`.
     #[inline(always)]
     pub fn from_fn(active: F::Mask, mut lobe: impl FnMut(usize) -> Lobe) -> Lobes<F> {
@@ -737,14 +783,28 @@ impl<F: Float> Lobes<F> {
                     ior,
                     ext_ior,
                     alpha,
-                } => (
-                    LobeKind::RoughDielectric,
-                    LobeParams::ior(ior.eval_w(lambda, m), *ext_ior, Some(*alpha)),
-                ),
-                Material::Conductor { eta, k, alpha } => (
-                    conductor_kind(*alpha),
-                    LobeParams::conductor(eta.eval_w(lambda, m), k.eval_w(lambda, m), *alpha),
-                ),
+                    alpha_map,
+                } => {
+                    let p = LobeParams::ior(ior.eval_w(lambda, m), *ext_ior, Some(*alpha));
+                    l.set(m, LobeKind::RoughDielectric, p);
+                    l.set_alpha_map(m, alpha_map, uv);
+                    continue;
+                }
+                Material::Conductor {
+                    eta,
+                    k,
+                    alpha,
+                    alpha_map,
+                } => {
+                    let (eta, k) = (eta.eval_w(lambda, m), k.eval_w(lambda, m));
+                    l.set(
+                        m,
+                        conductor_kind(*alpha),
+                        LobeParams::conductor(eta, k, *alpha),
+                    );
+                    l.set_alpha_map(m, alpha_map, uv);
+                    continue;
+                }
                 Material::Coated(c) => {
                     let mirror = m & coat.mirror;
                     if mirror.any() && c.is_rough() {
