@@ -434,9 +434,14 @@ for scene in "${scenes[@]}"; do
     echo "== $scene"
     check_message "stokes info $scene" "" info "$scene"
     if ! info=$("$base_bin" info "$scene" 2>/dev/null); then
-        # A scene the base commit does not have may use syntax the base cannot read.
-        git cat-file -e "$base_rev:$scene" 2>/dev/null && die "base: stokes info $scene failed"
-        echo "new scene, which the base cannot read: not rendered"
+        # A scene the base commit does not have, or has changed since, may use syntax the
+        # base cannot read; an unchanged scene it cannot read is a broken base.
+        if git cat-file -e "$base_rev:$scene" 2>/dev/null; then
+            git diff --quiet "$base_rev" -- "$scene" && die "base: stokes info $scene failed"
+            echo "scene changed since the base, which cannot read it: not rendered"
+        else
+            echo "new scene, which the base cannot read: not rendered"
+        fi
         new_scenes+=("$scene")
         continue
     fi
@@ -491,7 +496,7 @@ done
 
 echo
 echo "$n_methods methods over ${#scenes[@]} scenes, 2 images each; renders and comparisons $((t_messages - t_renders)) s, messages $((SECONDS - t_messages)) s, total $((SECONDS - start)) s"
-[ ${#new_scenes[@]} -eq 0 ] || echo "${#new_scenes[@]} new scenes the base cannot read, not rendered: ${new_scenes[*]}"
+[ ${#new_scenes[@]} -eq 0 ] || echo "${#new_scenes[@]} new or changed scenes the base cannot read, not rendered: ${new_scenes[*]}"
 [ "$n_header_notes" -eq 0 ] || echo "$n_header_notes images have header attributes that differ (not part of the verdict; see the notes)"
 [ "$n_weak" -eq 0 ] || echo "$n_weak images are weak tests (constant, or NaN/Inf; see the notes)"
 echo "$n_img_same images identical, $n_img_diff differ; $n_msg_same messages identical, $n_msg_diff differ"
