@@ -617,3 +617,78 @@ fn a_medium_matrix_with_a_diagonal_is_loaded_with_a_warning() {
     assert!(load("clean.csv").warnings.is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn an_rgb_medium_attenuates_by_its_upsampled_spectrum() {
+    // Where a medium takes a constant it takes an RGB too (upsampled unbounded: a
+    // coefficient may exceed 1). Camera and a white emitter inside an absorbing box whose
+    // σ_a(λ) is the upsampled colour: the quad is seen with ∫ e^{−σ_a(λ) D} x̄(λ) dλ, D = 3.
+    use stokes::spectrum::{RgbSpectrum, Spectrum};
+    let rgb = [0.2f32, 0.5, 1.2];
+    let text = format!(
+        r#"
+[camera]
+position = [0, 0, -2]
+look_at = [0, 0, 0]
+fov = 10
+resolution = [8, 8]
+medium = "ink"
+
+[media.ink]
+sigma_a = {{ rgb = [{}, {}, {}] }}
+
+[[shapes]]
+type = "box"
+min = [-10, -10, -10]
+max = [10, 10, 10]
+interior = "ink"
+
+[[shapes]]
+type = "quad"
+origin = [1, -1, 1]
+edge_u = [-2, 0, 0]
+edge_v = [0, 2, 0]
+emission = {{ radiance = 1.0 }}
+"#,
+        rgb[0], rgb[1], rgb[2]
+    );
+    let sigma = Spectrum::Rgb(RgbSpectrum::unbounded(rgb));
+    let transmittance = |s: &Spectrum| {
+        Spectrum::combine(s, &Spectrum::Constant(3.0), |a, d| (-a * d).exp()).unwrap()
+    };
+    let expected = |s: &Spectrum| {
+        stokes::color::xyz_to_linear_srgb(stokes::spectrum::spectrum_to_xyz(&transmittance(s)))
+            .to_array()
+            .map(f64::from)
+    };
+    let want = expected(&sigma);
+    // The test can tell: a grey medium of the colour's luminance, or the colour read as an
+    // albedo (channels capped at 1), would fail it by a wide margin.
+    let grey = expected(&Spectrum::Constant(
+        0.2126 * 0.2 + 0.7152 * 0.5 + 0.0722 * 1.2,
+    ));
+    let capped = expected(&Spectrum::Rgb(RgbSpectrum::albedo([0.2, 0.5, 1.0])));
+    let centre: Vec<usize> = (0..64usize)
+        .filter(|i| (i % 8).abs_diff(4) < 2 && (i / 8).abs_diff(4) < 2)
+        .collect();
+    for spectral in [Spectral::Hwss, Spectral::Mono] {
+        let mut scene = scene_from(&text);
+        let film = render_with(&mut scene, 8, 16384, 3, spectral, Tracking::Classic, -1);
+        let got = region_mean(&film, &centre);
+        assert_agree(
+            &format!("rgb ink, {spectral:?}"),
+            got,
+            (want, [0.0; 3]),
+            4.0,
+        );
+        for other in [grey, capped] {
+            let z = (0..3)
+                .map(|c| (got.0[c] - other[c]).abs() / got.1[c])
+                .fold(0.0, f64::max);
+            assert!(
+                z > 8.0,
+                "too noisy to tell {want:?} from {other:?}: {got:?}"
+            );
+        }
+    }
+}
