@@ -185,3 +185,38 @@ fn roughness_maps_a_material_cannot_take_are_refused() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
 }
+
+#[test]
+fn stokes_info_lists_roughness_maps() {
+    let dir = scratch("roughness-map-info");
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("scratches.png");
+    write_grey_png(&png, [0, 64, 128, 255]);
+    for (body, want) in [
+        (
+            format!(
+                "type = \"conductor\"\nmetal = \"Al\"\nroughness = {{ texture = {:?} }}",
+                s(&png)
+            ),
+            "plate roughness: ".to_string() + &s(&png) + " (2x2, 0.0 KiB)",
+        ),
+        (
+            "type = \"dielectric\"\nior = 1.5\nroughness = { checkerboard = [0.1, 0.4] }".into(),
+            "plate roughness: a checkerboard".into(),
+        ),
+        (
+            "type = \"conductor\"\nmetal = \"Al\"\nroughness = 0.2".into(),
+            "textures    none".into(),
+        ),
+    ] {
+        let file = dir.join("plate.toml");
+        std::fs::write(&file, plate(&body)).unwrap();
+        let (ok, out, err) = run(stokes().arg("info").arg(&file));
+        assert!(ok, "{err}");
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("textures"))
+            .unwrap_or("");
+        assert!(line.contains(&want), "{body}: {out}");
+    }
+}

@@ -73,13 +73,19 @@ impl Scene {
         let image = |name: &str, file: &str, w: usize, h: usize, bytes: usize| {
             format!("{name}: {file} ({w}x{h}, {:.1} KiB)", bytes as f64 / 1024.0)
         };
+        let scalar = |what: String, t: &crate::texture::scalar::ScalarTexture| match t.image() {
+            Some(img) => Some(image(&what, &img.file, img.width, img.height, img.memory())),
+            None => t.varies().then(|| format!("{what}: a checkerboard")),
+        };
         let mut items = Vec::new();
         for (m, name) in self.materials.iter().zip(&self.material_names) {
-            let (texture, strength) = match m {
-                Material::TexturedDiffuse { texture } => (Some(texture.as_ref()), None),
+            let (texture, strength, alpha) = match m {
+                Material::TexturedDiffuse { texture } => (Some(texture.as_ref()), None, None),
                 Material::FluorescentDiffuse { map: Some(map), .. } => {
-                    (map.diagonal.as_ref(), Some(&map.strength))
+                    (map.diagonal.as_ref(), Some(&map.strength), None)
                 }
+                Material::RoughDielectric { alpha_map, .. }
+                | Material::Conductor { alpha_map, .. } => (None, None, alpha_map.as_deref()),
                 _ => continue,
             };
             match texture.map(|t| t.image()) {
@@ -89,17 +95,8 @@ impl Scene {
                 Some(None) => items.push(format!("{name}: a checkerboard")),
                 None => {}
             }
-            match strength.filter(|s| s.varies()).map(|s| s.image()) {
-                Some(Some(img)) => items.push(image(
-                    &format!("{name} dye strength"),
-                    &img.file,
-                    img.width,
-                    img.height,
-                    img.memory(),
-                )),
-                Some(None) => items.push(format!("{name} dye strength: a checkerboard")),
-                None => {}
-            }
+            items.extend(strength.and_then(|s| scalar(format!("{name} dye strength"), s)));
+            items.extend(alpha.and_then(|a| scalar(format!("{name} roughness"), a)));
         }
         if let Some(map) = self.lights.environment_map() {
             items.push(format!(
