@@ -5,97 +5,16 @@
 //! 0.001; maps a coat cannot take are refused.
 
 mod common;
+use common::plate::{corners_match, film, plate, write_png_2x2};
 use common::*;
-use std::path::Path;
 use stokes::scene::Scene;
-
-/// A 2 × 2 quad filling a 32 × 32 view, lit by a point light beside the camera and a dim
-/// sky; `material` is the quad's material body.
-fn plate(material: &str) -> String {
-    format!(
-        r#"
-[camera]
-position = [0, 0, 1]
-look_at = [0, 0, 0]
-fov = 90
-resolution = [32, 32]
-
-[materials.plate]
-{material}
-
-[[shapes]]
-type = "quad"
-origin = [-1, -1, 0]
-edge_u = [2, 0, 0]
-edge_v = [0, 2, 0]
-material = "plate"
-
-[[lights]]
-type = "point"
-position = [0.4, 0.3, 1.2]
-intensity = {{ illuminant = "D65", scale = 0.02 }}
-
-[[lights]]
-type = "environment"
-radiance = {{ illuminant = "D65", scale = 0.001 }}
-"#
-    )
-}
-
-/// The outer 8 × 8 pixels of the quadrant whose top-left pixel is (x0, y0).
-fn corner(x0: usize, y0: usize) -> Vec<usize> {
-    (y0..y0 + 8)
-        .flat_map(|y| (x0..x0 + 8).map(move |x| y * 32 + x))
-        .collect()
-}
-
-/// Top-left, top-right, bottom-left, bottom-right; u runs right, v up.
-const CORNERS: [(usize, usize); 4] = [(0, 0), (24, 0), (0, 24), (24, 24)];
-
-fn film(text: &str) -> stokes::integrator::render::Film {
-    TestRender::at(32, 32)
-        .spp(256)
-        .seed(17)
-        .film(&mut scene_from(text))
-}
 
 /// The map's corners against constant widths `alphas` (TL, TR, BL, BR) of `kind` (the
 /// material body without its roughness).
 fn corners_match_constant_widths(kind: &str, map: &str, alphas: [f32; 4]) {
     let mapped = film(&plate(&format!("{kind}\nroughness = {map}")));
     let constant = alphas.map(|a| film(&plate(&format!("{kind}\nroughness = {a}"))));
-    for (k, (x0, y0)) in CORNERS.into_iter().enumerate() {
-        let px = corner(x0, y0);
-        assert_agree(
-            &format!("{kind} {map}: corner {k} (α {})", alphas[k]),
-            region_mean(&mapped, &px),
-            region_mean(&constant[k], &px),
-            4.5,
-        );
-        // The test can tell the widths apart there: another width looks different.
-        let j = (0..4).find(|&j| alphas[j] != alphas[k]).unwrap();
-        let (a, se_a) = region_mean(&constant[k], &px);
-        let (b, se_b) = region_mean(&constant[j], &px);
-        let z = (a[1] - b[1]) / (se_a[1].hypot(se_b[1])).max(1e-12);
-        assert!(
-            z.abs() > 6.0,
-            "corner {k}: α {} and {} look alike (z {z:.1})",
-            alphas[k],
-            alphas[j]
-        );
-    }
-}
-
-/// Writes a 2 × 2 8-bit grey PNG, row 0 at the top.
-fn write_grey_png(path: &Path, values: [u8; 4]) {
-    let file = std::fs::File::create(path).unwrap();
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), 2, 2);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()
-        .unwrap()
-        .write_image_data(&values)
-        .unwrap();
+    corners_match(&format!("{kind} {map}"), &mapped, &constant, alphas);
 }
 
 #[test]
@@ -104,7 +23,7 @@ fn a_conductor_roughness_map_renders_each_texel_as_its_constant_width() {
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("rough.png");
     let values = [13u8, 128, 255, 51];
-    write_grey_png(&file, values);
+    write_png_2x2(&file, 1, &values);
     let map = format!("{{ texture = {:?}, wrap = \"clamp\" }}", s(&file));
     corners_match_constant_widths(
         "type = \"conductor\"\nmetal = \"Au\"",
@@ -128,7 +47,7 @@ fn a_zero_texel_is_the_narrowest_rough_lobe() {
     let dir = scratch("roughness-map-zero");
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("zero.png");
-    write_grey_png(&file, [0; 4]);
+    write_png_2x2(&file, 1, &[0; 4]);
     let body = "type = \"conductor\"\nmetal = \"Au\"";
     let mapped = film(&plate(&format!(
         "{body}\nroughness = {{ texture = {:?} }}",
@@ -191,7 +110,7 @@ fn stokes_info_lists_roughness_maps() {
     let dir = scratch("roughness-map-info");
     std::fs::create_dir_all(&dir).unwrap();
     let png = dir.join("scratches.png");
-    write_grey_png(&png, [0, 64, 128, 255]);
+    write_png_2x2(&png, 1, &[0, 64, 128, 255]);
     for (body, want) in [
         (
             format!(

@@ -43,6 +43,12 @@
 //! ([`super::Lobe::CoatedBase`], [`super::Lobe::CoatedConductor`]) samples the base and
 //! carries the entrance factor at λi.
 //!
+//! **Textured base.** A Lambertian base's albedo and dye strength may vary over the
+//! surface ([`FluorescenceMap`]: a diffuse base's `reflectance` texture, a fluorescent
+//! base's textured `reflectance` and `fluorescence` map). The closed form then takes the
+//! albedo at the hit, 1/(1 − ρ_uv(λo)·r(λo)), with r tabulated per nm once; the coat
+//! itself stays uniform.
+//!
 //! ```toml
 //! [materials.sticky_note]
 //! type = "coated"
@@ -59,6 +65,7 @@
 use super::microfacet::{fresnel_conductor, Ggx};
 use super::rough::frame_towards;
 use super::{albedo, fresnel_dielectric, reflect, Ior, Normals, MIN_ALPHA};
+use crate::fluoro::map::FluorescenceMap;
 use crate::fluoro::Reradiation;
 use crate::simd::{math, Float, Mask, Spec, V3};
 use crate::spectrum::{Spectrum, Tabulated, LAMBDA_MAX, LAMBDA_MIN};
@@ -96,6 +103,11 @@ pub struct Coated {
     /// The exit's constant part per wavelength: 1/(η²·(1 − ρ·r)) over a Lambertian base,
     /// 1/η² over a conductor.
     exit_scale: Spectrum,
+    /// The coat's internal reflectance r(λ) per nm (over a Lambertian base), for a
+    /// textured base's exit.
+    internal: Option<Spectrum>,
+    /// A Lambertian base's albedo and dye strength over the surface, if they vary.
+    map: Option<Arc<FluorescenceMap>>,
 }
 
 /// The branch probability's bounds: neither branch is ever starved.
@@ -110,36 +122,63 @@ impl Coated {
             .collect();
         let mut last: Option<(f32, f32, f32)> = None;
         let rough = RoughInterior::new(&ior, alpha);
+        let internal: Option<Vec<f32>> = matches!(base, CoatBase::Lambertian(_)).then(|| {
+            grid.iter()
+                .map(|&l| {
+                    let (eta, tau_l) = (ior.eval(l), tau.eval(l));
+                    let r = match (last, &rough) {
+                        (Some((e, t, r)), _) if e == eta && t == tau_l => r,
+                        (_, Some(rough)) => rough.at(eta).reflectance(eta, tau_l),
+                        (_, None) => internal_reflectance(eta, tau_l, alpha),
+                    };
+                    last = Some((eta, tau_l, r));
+                    r
+                })
+                .collect()
+        });
         let scale: Vec<f32> = grid
             .iter()
-            .map(|&l| {
+            .enumerate()
+            .map(|(n, &l)| {
                 let eta = ior.eval(l);
-                let rho_r = match &base {
-                    CoatBase::Lambertian(b) => {
-                        let tau_l = tau.eval(l);
-                        let r = match (last, &rough) {
-                            (Some((e, t, r)), _) if e == eta && t == tau_l => r,
-                            (_, Some(rough)) => rough.at(eta).reflectance(eta, tau_l),
-                            (_, None) => internal_reflectance(eta, tau_l, alpha),
-                        };
-                        last = Some((eta, tau_l, r));
-                        b.diagonal().eval(l) * r
-                    }
-                    CoatBase::Conductor { .. } => 0.0,
+                let rho_r = match (&base, &internal) {
+                    (CoatBase::Lambertian(b), Some(r)) => b.diagonal().eval(l) * r[n],
+                    _ => 0.0,
                 };
                 1.0 / (eta * eta * (1.0 - rho_r))
             })
             .collect();
-        let exit_scale =
-            Spectrum::Tabulated(Tabulated::new(grid, scale).expect("a 1 nm grid of finite values"));
+        let tabulate = |values| {
+            Spectrum::Tabulated(
+                Tabulated::new(grid.clone(), values).expect("a 1 nm grid of finite values"),
+            )
+        };
         Coated {
             eta_ref: ior.eval(550.0),
+            exit_scale: tabulate(scale),
+            internal: internal.map(tabulate),
             ior,
             tau,
             alpha,
             base,
-            exit_scale,
+            map: None,
         }
+    }
+
+    /// The same coat over a Lambertian base whose albedo and dye strength vary as `map`
+    /// says (the base's re-radiation supplies the dye, and the diagonal where the map has
+    /// none).
+    pub fn with_map(self, map: Arc<FluorescenceMap>) -> Coated {
+        debug_assert!(matches!(self.base, CoatBase::Lambertian(_)));
+        Coated {
+            map: Some(map),
+            ..self
+        }
+    }
+
+    /// The textured base's map, if any.
+    pub fn map(&self) -> Option<&Arc<FluorescenceMap>> {
+        self.map.as_ref()
     }
 
     /// The Lambertian base's re-radiation (None over a conductor).
@@ -185,6 +224,26 @@ impl Coated {
         let (eta, tau) = self.at(lambda, m);
         let through = crossing(cos_o, &eta, &tau, F::splat(self.alpha));
         through * self.exit_scale.eval_w(lambda, m)
+    }
+
+    /// [`Coated::exit`] over a textured Lambertian base of albedo `rho` per lane at λo:
+    /// (1 − R)·e^(−τ/cos θo') / (η²·(1 − ρ·r)).
+    #[inline(always)]
+    pub fn exit_textured<F: Float>(
+        &self,
+        cos_o: F,
+        lambda: &Spec<F>,
+        m: F::Mask,
+        rho: &Spec<F>,
+    ) -> Spec<F> {
+        let (eta, tau) = self.at(lambda, m);
+        let through = crossing(cos_o, &eta, &tau, F::splat(self.alpha));
+        let r = match &self.internal {
+            Some(r) => r.eval_w(lambda, m),
+            None => Spec::zero(),
+        };
+        let one = Spec::splat(1.0);
+        through / (eta * eta * (one - *rho * r))
     }
 
     /// The coat's parameters at the wavelengths `lambda` for the base lobe: η and τ.

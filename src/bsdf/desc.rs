@@ -405,22 +405,26 @@ fn coated(
     let base = m.base.as_ref().ok_or_else(|| {
         key.error("missing key `base` (the material under the coat) for a coated material")
     })?;
+    let mut map = None;
     let base = match Material::from_desc(base, &base_key, ctx)? {
         Material::Diffuse { reflectance } => {
             CoatBase::Lambertian(Arc::new(Reradiation::diagonal_only(reflectance)))
         }
         Material::FluorescentDiffuse {
             reradiation,
-            map: None,
-        } => CoatBase::Lambertian(reradiation),
-        Material::TexturedDiffuse { .. } | Material::FluorescentDiffuse { map: Some(_), .. } => {
-            let k = match base.fluorescence.is_some() {
-                true => "fluorescence",
-                false => "reflectance",
-            };
-            return Err(base_key
-                .field(k)
-                .error("a texture under a coat (not supported yet: give the base a spectrum)"));
+            map: m,
+        } => {
+            map = m;
+            CoatBase::Lambertian(reradiation)
+        }
+        Material::TexturedDiffuse { texture } => {
+            // The diagonal comes from the map; the placeholder is never read.
+            map = Some(Arc::new(FluorescenceMap {
+                diagonal: Some(texture.as_ref().clone()),
+                strength: ScalarTexture::Constant(1.0),
+            }));
+            let none = Reradiation::diagonal_only(Spectrum::Constant(0.0));
+            CoatBase::Lambertian(Arc::new(none))
         }
         Material::Conductor {
             eta,
@@ -471,9 +475,11 @@ fn coated(
             return Err(key.error("`thickness` without `absorption` (a clear coat needs neither)"))
         }
     };
-    Ok(Material::Coated(Arc::new(Coated::new(
-        ior, tau, alpha[0], base,
-    ))))
+    let coated = Coated::new(ior, tau, alpha[0], base);
+    Ok(Material::Coated(Arc::new(match map {
+        Some(map) => coated.with_map(map),
+        None => coated,
+    })))
 }
 
 /// A conductor's η and k: a shipped `metal`, or `eta` and `k` spectra (η > 0 and k ≥ 0

@@ -350,6 +350,7 @@ impl Material {
             Material::RoughDielectric { alpha_map, .. } | Material::Conductor { alpha_map, .. } => {
                 alpha_map.as_ref().is_some_and(|m| m.varies())
             }
+            Material::Coated(c) => c.map().is_some_and(|m| m.varies()),
             _ => false,
         }
     }

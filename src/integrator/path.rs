@@ -392,7 +392,8 @@ impl<F: Float> Paths<F> {
         self.kill(ends);
         s &= !ends;
         let nrm = shading_normals(scene, hit, s, ng, wo);
-        let coat = self.choose_coat(scene, &mat, s, &nrm, wo);
+        let uv = texture_coords(scene, hit, s, &mat);
+        let coat = self.choose_coat(scene, &mat, s, &nrm, wo, &uv);
         for i in s.iter() {
             let shifted = match &scene.materials[mat[i] as usize] {
                 Material::FluorescentDiffuse {
@@ -404,7 +405,10 @@ impl<F: Float> Paths<F> {
                     map: Some(map),
                 } => self.shift(i, &map.at(reradiation, uv_at(scene, hit, i))),
                 Material::Coated(c) if !coat.mirror.get(i) && c.fluoresces() => {
-                    c.reradiation().is_none_or(|b| self.shift(i, b.as_ref()))
+                    match (c.reradiation(), c.map()) {
+                        (Some(b), Some(map)) => self.shift(i, &map.at(b, uv[i])),
+                        (b, _) => b.is_none_or(|b| self.shift(i, b.as_ref())),
+                    }
                 }
                 _ => true,
             };
@@ -416,7 +420,6 @@ impl<F: Float> Paths<F> {
         if s.none() {
             return;
         }
-        let uv = texture_coords(scene, hit, s, &mat);
         let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda, &coat, &uv);
         self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, &nrm, wo, stats, shadow);
         self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, &nrm, wo, children);
@@ -427,7 +430,8 @@ impl<F: Float> Paths<F> {
     /// smooth coat's with its mirror's weight) and the base; the base's paths take what
     /// the coat does to light leaving towards `wo` at their current wavelengths (λo,
     /// before any shift), over 1 − P, and the base's albedo when it does not fluoresce
-    /// (a fluorescent base's re-radiation comes with the shift). [`crate::bsdf::coated`].
+    /// (a fluorescent base's re-radiation comes with the shift); a textured base's albedo
+    /// at the paths' texture coordinates `uv`. [`crate::bsdf::coated`].
     #[inline(always)]
     fn choose_coat(
         &mut self,
@@ -436,6 +440,7 @@ impl<F: Float> Paths<F> {
         m: F::Mask,
         nrm: &Normals<F>,
         wo: V3<F>,
+        uv: &F::Arr<Vec2>,
     ) -> CoatChoice<F> {
         let on_coat = |i: usize| matches!(scene.materials[mat[i] as usize], Material::Coated(_));
         let coated = m & F::Mask::from_fn(|i| m.get(i) && on_coat(i));
@@ -463,10 +468,30 @@ impl<F: Float> Paths<F> {
             }
             let base = same & !u.lt(p);
             if base.any() {
-                let mut w = c.exit(cos_o, &self.lambda, base) / (F::splat(1.0) - p);
-                if let Some(b) = c.reradiation().filter(|b| !b.is_fluorescent()) {
-                    w *= b.diagonal().eval_w(&self.lambda, base);
-                }
+                let w = match (c.reradiation(), c.map()) {
+                    (Some(b), Some(map)) => {
+                        let rho = Spec::from_fn(|i| match base.get(i) {
+                            true => {
+                                let at = map.at(b, uv[i]);
+                                Vec4::from_array(self.lambda.path(i).to_array().map(|l| at.d(l)))
+                            }
+                            false => Vec4::ZERO,
+                        });
+                        let w =
+                            c.exit_textured(cos_o, &self.lambda, base, &rho) / (F::splat(1.0) - p);
+                        match b.is_fluorescent() {
+                            true => w,
+                            false => w * rho,
+                        }
+                    }
+                    _ => {
+                        let mut w = c.exit(cos_o, &self.lambda, base) / (F::splat(1.0) - p);
+                        if let Some(b) = c.reradiation().filter(|b| !b.is_fluorescent()) {
+                            w *= b.diagonal().eval_w(&self.lambda, base);
+                        }
+                        w
+                    }
+                };
                 self.beta.set_where(base, self.beta * w);
             }
         }

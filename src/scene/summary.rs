@@ -84,6 +84,10 @@ impl Scene {
                 Material::FluorescentDiffuse { map: Some(map), .. } => {
                     (map.diagonal.as_ref(), Some(&map.strength), None)
                 }
+                Material::Coated(c) => match c.map() {
+                    Some(map) => (map.diagonal.as_ref(), Some(&map.strength), None),
+                    None => continue,
+                },
                 Material::RoughDielectric { alpha_map, .. }
                 | Material::Conductor { alpha_map, .. } => (None, None, alpha_map.as_deref()),
                 _ => continue,

@@ -4,6 +4,7 @@
 
 pub mod directions;
 pub mod oiio;
+pub mod plate;
 pub mod stats;
 
 use std::path::{Path, PathBuf};
