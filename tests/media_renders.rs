@@ -350,11 +350,11 @@ fn extreme_media_stay_finite() {
     }
 }
 
-#[test]
-fn camera_and_light_inside_an_absorbing_medium() {
-    // Camera and an emitting quad both inside a large absorbing box: the quad is seen with
-    // radiance L·e^{−σ_a D}, D the distance along the central ray.
-    let text = r#"
+/// The camera and a white emitting quad 3 units ahead, both inside a large box of the
+/// medium `ink` (`sigma_a` its absorption, a spectrum).
+fn ink_room(sigma_a: &str) -> String {
+    format!(
+        r#"
 [camera]
 position = [0, 0, -2]
 look_at = [0, 0, 0]
@@ -363,7 +363,7 @@ resolution = [8, 8]
 medium = "ink"
 
 [media.ink]
-sigma_a = 0.4
+sigma_a = {sigma_a}
 
 [[shapes]]
 type = "box"
@@ -376,8 +376,17 @@ type = "quad"
 origin = [1, -1, 1]
 edge_u = [-2, 0, 0]
 edge_v = [0, 2, 0]
-emission = { radiance = 1.0 }
-"#;
+emission = {{ radiance = 1.0 }}
+"#
+    )
+}
+
+#[test]
+fn camera_and_light_inside_an_absorbing_medium() {
+    // Camera and an emitting quad both inside a large absorbing box: the quad is seen with
+    // radiance L·e^{−σ_a D}, D the distance along the central ray.
+    let text = ink_room("0.4");
+    let text = text.as_str();
     let mut scene = scene_from(text);
     // Classic tracking in a purely absorbing medium is an analogue estimator (a collision
     // ends the path), so the comparison is a Z-test.
@@ -625,33 +634,7 @@ fn an_rgb_medium_attenuates_by_its_upsampled_spectrum() {
     // σ_a(λ) is the upsampled colour: the quad is seen with ∫ e^{−σ_a(λ) D} x̄(λ) dλ, D = 3.
     use stokes::spectrum::{RgbSpectrum, Spectrum};
     let rgb = [0.2f32, 0.5, 1.2];
-    let text = format!(
-        r#"
-[camera]
-position = [0, 0, -2]
-look_at = [0, 0, 0]
-fov = 10
-resolution = [8, 8]
-medium = "ink"
-
-[media.ink]
-sigma_a = {{ rgb = [{}, {}, {}] }}
-
-[[shapes]]
-type = "box"
-min = [-10, -10, -10]
-max = [10, 10, 10]
-interior = "ink"
-
-[[shapes]]
-type = "quad"
-origin = [1, -1, 1]
-edge_u = [-2, 0, 0]
-edge_v = [0, 2, 0]
-emission = {{ radiance = 1.0 }}
-"#,
-        rgb[0], rgb[1], rgb[2]
-    );
+    let text = ink_room(&format!("{{ rgb = [{}, {}, {}] }}", rgb[0], rgb[1], rgb[2]));
     let sigma = Spectrum::Rgb(RgbSpectrum::unbounded(rgb));
     let transmittance = |s: &Spectrum| {
         Spectrum::combine(s, &Spectrum::Constant(3.0), |a, d| (-a * d).exp()).unwrap()
