@@ -35,12 +35,12 @@ SLOW="-- --skip mono_constant_and_independent_agree"
 # group | files (globs, comma-separated) | test binaries | test harness arguments
 GROUPS_TABLE="
 light    | src/light.rs, src/light/*.rs | --lib --test light_sampling --test render_analytic --test lights --test environment | -- --skip stokes_info_lists_the_lights_by_kind
-texture  | src/texture/*.rs, src/fluoro/map.rs | --lib --test textures --test fluorescence_map --test roughness_map --test coated_texture |
+texture  | src/texture/*.rs, src/fluoro/map.rs | --lib --test textures --test fluorescence_map --test roughness_map --test coated_texture | -- --skip stokes_info_lists
 bsdf     | src/bsdf/*.rs           | --lib --test bsdf_sampling --test packet |
 medium   | src/medium/*.rs         | --lib --test medium_sampling --test media_renders |
 spectrum | src/spectrum/*.rs       | --lib --test spectrum --test colorchecker |
 path     | src/integrator/path.rs, src/integrator/shadow.rs, src/integrator/mod.rs | --test render_analytic --test media_renders --test packet --test fluorescent_surfaces | $SLOW
-fluoro   | src/fluoro/*.rs         | --lib --test reradiation --test fluorescent_surfaces --test fluorescence_map | $SLOW
+fluoro   | src/fluoro/*.rs         | --lib --test reradiation --test fluorescent_surfaces --test fluorescence_map | $SLOW --skip stokes_info_lists
 "
 EXCLUDE=(--exclude 'src/*/desc.rs' --exclude-re 'from_desc|checked_power')
 

@@ -359,3 +359,51 @@ fn stokes_info_lists_the_strength_map() {
         "{out}"
     );
 }
+
+#[test]
+fn the_energy_check_runs_over_the_maps() {
+    // D + s·σ_sa with σ_sa = Φ·A peaking at 0.9 × 0.85: over 1 where a bright diagonal
+    // meets full strength, under it everywhere if either stays low.
+    let warns = |keys: &str| {
+        let scene = Scene::from_str(&quad_scene(keys), &root().join("scenes/inline.toml"))
+            .unwrap_or_else(|e| panic!("{keys}: {e}"));
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("materials.print") && w.contains("creates energy"))
+    };
+    let strength = |values: [f32; 2]| format!("fluorescence = {{ checkerboard = {values:?} }}");
+    let reflectance = |values: [f32; 2]| {
+        format!(
+            "reflectance = {{ checkerboard = [{}, {}] }}",
+            values[0], values[1]
+        )
+    };
+    // A strength map: the diagonal is 0.5 everywhere.
+    assert!(warns(&format!(
+        "reflectance = 0.5\n{}",
+        strength([0.0, 1.0])
+    )));
+    assert!(!warns(&format!(
+        "reflectance = 0.5\n{}",
+        strength([0.0, 0.5])
+    )));
+    // A textured diagonal at full strength: only its bright square overflows.
+    assert!(warns(&format!(
+        "{}\n{}",
+        reflectance([0.1, 0.5]),
+        strength([1.0, 1.0])
+    )));
+    assert!(!warns(&format!(
+        "{}\n{}",
+        reflectance([0.1, 0.2]),
+        strength([1.0, 1.0])
+    )));
+    // Both vary, but the bright diagonal and the full strength never meet (the same
+    // checkerboard: bright where the dye is weak).
+    assert!(!warns(&format!(
+        "{}\n{}",
+        reflectance([0.1, 0.9]),
+        strength([1.0, 0.05])
+    )));
+}

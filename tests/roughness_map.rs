@@ -5,7 +5,7 @@
 //! 0.001; maps a coat cannot take are refused.
 
 mod common;
-use common::plate::{corners_match, film, plate, write_png_2x2};
+use common::plate::{corners_match, film, plate, write_grey16_png_2x2, write_png_2x2};
 use common::*;
 use stokes::scene::Scene;
 
@@ -29,6 +29,20 @@ fn a_conductor_roughness_map_renders_each_texel_as_its_constant_width() {
         "type = \"conductor\"\nmetal = \"Au\"",
         &map,
         values.map(|v| f32::from(v) / 255.0),
+    );
+}
+
+#[test]
+fn a_sixteen_bit_map_is_read_as_data() {
+    let dir = scratch("roughness-map-16");
+    let file = dir.join("rough16.png");
+    let values = [3000u16, 30000, 65535, 12000];
+    write_grey16_png_2x2(&file, values);
+    let map = format!("{{ texture = {:?}, wrap = \"clamp\" }}", s(&file));
+    corners_match_constant_widths(
+        "type = \"conductor\"\nmetal = \"Au\"",
+        &map,
+        values.map(|v| f32::from(v) / 65535.0),
     );
 }
 

@@ -910,6 +910,9 @@ fn texture_coords<F: Float>(
     m: F::Mask,
     mat: &F::Arr<u32>,
 ) -> F::Arr<Vec2> {
+    if !scene.any_textured {
+        return Lanes::from_fn(|_| Vec2::ZERO);
+    }
     let textured = |i: usize| scene.materials[mat[i] as usize].is_textured();
     Lanes::from_fn(|i| match m.get(i) && textured(i) {
         true => uv_at(scene, hit, i),

@@ -175,6 +175,9 @@ pub struct Scene {
     pub render: RenderDesc,
     /// Materials, by index.
     pub materials: Vec<Material>,
+    /// Whether any material is textured ([`Material::is_textured`]): without one, no
+    /// surface step looks up texture coordinates.
+    pub any_textured: bool,
     /// Material names, by index.
     pub material_names: Vec<String>,
     /// Per Embree geometry id.
@@ -429,6 +432,7 @@ impl Builder<'_> {
             accel,
             camera,
             render: d.render.clone(),
+            any_textured: materials.items.iter().any(Material::is_textured),
             materials: materials.items,
             material_names: materials.names,
             geometries,

@@ -140,11 +140,6 @@ impl<const N: usize> Image<N> {
         self.texels.len() * std::mem::size_of::<[f32; N]>()
     }
 
-    /// Every texel, row by row from the top.
-    pub fn texels(&self) -> &[[f32; N]] {
-        &self.texels
-    }
-
     /// The texel at column `x`, row `y` (wrapped).
     fn texel(&self, x: i64, y: i64) -> [f32; N] {
         let (i, j) = (

@@ -53,15 +53,6 @@ impl ScalarTexture {
         }
     }
 
-    /// The largest value anywhere (bilinear filtering never exceeds the largest texel).
-    pub fn max(&self) -> f32 {
-        match self {
-            ScalarTexture::Constant(v) => *v,
-            ScalarTexture::Image(img) => img.texels().iter().map(|t| t[0]).fold(0.0, f32::max),
-            ScalarTexture::Checkerboard { values, .. } => values[0].max(values[1]),
-        }
-    }
-
     /// Whether it varies over the surface (needs texture coordinates).
     pub fn varies(&self) -> bool {
         !matches!(self, ScalarTexture::Constant(_))

@@ -99,3 +99,16 @@ pub fn write_png_2x2(path: &std::path::Path, channels: usize, texels: &[u8]) {
         .write_image_data(texels)
         .unwrap();
 }
+
+/// [`write_png_2x2`] with 16-bit grey texels.
+pub fn write_grey16_png_2x2(path: &std::path::Path, texels: [u16; 4]) {
+    let file = std::fs::File::create(path).unwrap();
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), 2, 2);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Sixteen);
+    let bytes: Vec<u8> = texels.iter().flat_map(|t| t.to_be_bytes()).collect();
+    enc.write_header()
+        .unwrap()
+        .write_image_data(&bytes)
+        .unwrap();
+}
