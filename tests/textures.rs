@@ -260,3 +260,36 @@ fn bad_textures_are_rejected_naming_the_file_and_key() {
         "{err}"
     );
 }
+
+#[test]
+fn a_mirror_takes_a_reflectance_texture() {
+    // A mirror plate facing the camera reflects a constant sky: each quadrant of a 2 × 2
+    // checkerboard shows the sky times that square's reflectance, noise-free, as the
+    // mirror of the constant reflectance does.
+    use common::plate::{corner, plate, CORNERS};
+    let values = [0.9f32, 0.2, 0.2, 0.9];
+    let body = |r: &str| format!("type = \"mirror\"\nreflectance = {r}");
+    let film = |text: &str| {
+        TestRender::at(32, 32)
+            .spp(4)
+            .seed(5)
+            .film(&mut scene_from(text))
+    };
+    let mapped = film(&plate(&body(
+        "{ checkerboard = [0.2, 0.9], checks = [2, 2] }",
+    )));
+    for (k, (x0, y0)) in CORNERS.into_iter().enumerate() {
+        let px = corner(x0, y0);
+        let constant = film(&plate(&body(&values[k].to_string())));
+        let (got, want) = (region_mean(&mapped, &px).0, region_mean(&constant, &px).0);
+        for c in 0..3 {
+            assert!(
+                (got[c] - want[c]).abs() <= 1e-5 * want[c].abs() && want[c] > 0.0,
+                "corner {k} (reflectance {}): {got:?} vs {want:?}",
+                values[k]
+            );
+        }
+    }
+    let info = scene_from(&plate(&body("{ checkerboard = [0.2, 0.9] }")));
+    assert!(info.any_textured);
+}

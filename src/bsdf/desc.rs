@@ -301,7 +301,15 @@ impl Material {
             "mirror" => {
                 reject(&ior_keys)?;
                 let reflectance = match &m.reflectance {
-                    Some(r) => reflectance(ctx, r)?,
+                    Some(r) => {
+                        if let Some(texture) = texture_from_desc(r, &key.field("reflectance"), ctx)?
+                        {
+                            return Ok(Material::TexturedMirror {
+                                texture: Arc::new(texture),
+                            });
+                        }
+                        reflectance(ctx, r)?
+                    }
                     None => Spectrum::Constant(1.0),
                 };
                 Ok(Material::Mirror { reflectance })

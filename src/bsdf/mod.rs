@@ -141,6 +141,11 @@ pub enum Material {
         /// Spectral reflectance in [0, 1].
         reflectance: Spectrum,
     },
+    /// Perfect specular reflection with a reflectance that varies over the surface.
+    TexturedMirror {
+        /// The reflectance at the hit's texture coordinates.
+        texture: Arc<Texture>,
+    },
     /// Lambertian with re-radiation: M(λi→λo)/π · cos θ. The integrator samples the
     /// wavelength shift first ([`crate::fluoro`]); what is left is Lambertian with albedo 1.
     FluorescentDiffuse {
@@ -345,7 +350,7 @@ impl Material {
     #[inline]
     pub fn is_textured(&self) -> bool {
         match self {
-            Material::TexturedDiffuse { .. } => true,
+            Material::TexturedDiffuse { .. } | Material::TexturedMirror { .. } => true,
             Material::FluorescentDiffuse { map: Some(m), .. } => m.varies(),
             Material::RoughDielectric { alpha_map, .. } | Material::Conductor { alpha_map, .. } => {
                 alpha_map.as_ref().is_some_and(|m| m.varies())
@@ -371,6 +376,7 @@ impl Material {
             Material::Diffuse { reflectance } => Lobe::Diffuse(reflectance.eval4(lambda)),
             Material::TexturedDiffuse { texture } => Lobe::Diffuse(texture.eval4(uv, lambda)),
             Material::Mirror { reflectance } => Lobe::Mirror(reflectance.eval4(lambda)),
+            Material::TexturedMirror { texture } => Lobe::Mirror(texture.eval4(uv, lambda)),
             Material::FluorescentDiffuse { .. } => Lobe::Diffuse(Vec4::ONE),
             Material::Dielectric { ior, ext_ior } => Lobe::Dielectric(ior.eval4(lambda), *ext_ior),
             Material::RoughDielectric {
@@ -772,6 +778,10 @@ impl<F: Float> Lobes<F> {
                 Material::Mirror { reflectance } => (
                     LobeKind::Mirror,
                     LobeParams::albedo(reflectance.eval_w(lambda, m)),
+                ),
+                Material::TexturedMirror { texture } => (
+                    LobeKind::Mirror,
+                    LobeParams::albedo(texture.eval_w(lambda, m, uv)),
                 ),
                 Material::FluorescentDiffuse { .. } => {
                     (LobeKind::Diffuse, LobeParams::albedo(Spec::splat(1.0)))

@@ -80,7 +80,9 @@ impl Scene {
         let mut items = Vec::new();
         for (m, name) in self.materials.iter().zip(&self.material_names) {
             let (texture, strength, alpha) = match m {
-                Material::TexturedDiffuse { texture } => (Some(texture.as_ref()), None, None),
+                Material::TexturedDiffuse { texture } | Material::TexturedMirror { texture } => {
+                    (Some(texture.as_ref()), None, None)
+                }
                 Material::FluorescentDiffuse { map: Some(map), .. } => {
                     (map.diagonal.as_ref(), Some(&map.strength), None)
                 }
