@@ -239,14 +239,15 @@ fn bad_textures_are_rejected_naming_the_file_and_key() {
         assert!(err.contains(want), "{desc}: {err}");
     }
     // Textures only where a material takes them; and a shape needs texture coordinates.
-    let mirror = quad_under_sky("0.5").replace(
+    let metal = quad_under_sky("0.5").replace(
         "type = \"diffuse\"\nreflectance = 0.5",
-        "type = \"mirror\"\nreflectance = { checkerboard = [0.2, 0.4] }",
+        "type = \"conductor\"\neta = { checkerboard = [0.2, 0.4] }\nk = 1",
     );
+    let err = load(&metal);
     assert!(
-        load(&mirror).contains("only a diffuse material's `reflectance` takes a texture"),
-        "{}",
-        load(&mirror)
+        err.contains("materials.paper.eta")
+            && err.contains("only a diffuse, fluorescent diffuse or mirror material's `reflectance` takes a texture"),
+        "{err}"
     );
     let boxed = quad_under_sky("{ checkerboard = [0.2, 0.4] }").replace(
         "type = \"quad\"\norigin = [-1, -1, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]",

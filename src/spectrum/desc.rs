@@ -179,7 +179,7 @@ fn from_table(
     ];
     if t.texture.is_some() || t.checkerboard.is_some() {
         return Err(key.error(
-            "a texture here: only a diffuse material's `reflectance` takes a texture or checkerboard",
+            "a texture here: only a diffuse, fluorescent diffuse or mirror material's `reflectance` takes a texture or checkerboard (numbers: `fluorescence`, `roughness`)",
         ));
     }
     let given: Vec<&str> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
