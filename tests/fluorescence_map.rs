@@ -201,7 +201,6 @@ fn checkerboards_of_diagonal_and_strength_land_on_their_squares() {
 #[test]
 fn image_strength_maps_are_data_read_without_srgb_decoding() {
     let dir = scratch("fluorescence-map-images");
-    std::fs::create_dir_all(&dir).unwrap();
     let grey = dir.join("mask.png");
     let values = [0u8, 255, 128, 64];
     write_png_2x2(&grey, 1, &values);
@@ -226,7 +225,6 @@ fn image_strength_maps_are_data_read_without_srgb_decoding() {
 #[test]
 fn bad_maps_are_refused_naming_the_file_and_key() {
     let dir = scratch("fluorescence-map-bad");
-    std::fs::create_dir_all(&dir).unwrap();
     let grey = dir.join("grey.png");
     write_png_2x2(&grey, 1, &[0, 10, 20, 30]);
     let rgb = dir.join("rgb.png");
@@ -338,7 +336,6 @@ fn bad_maps_are_refused_naming_the_file_and_key() {
 #[test]
 fn stokes_info_lists_the_strength_map() {
     let dir = scratch("fluorescence-map-info");
-    std::fs::create_dir_all(&dir).unwrap();
     let grey = dir.join("mask.png");
     write_png_2x2(&grey, 1, &[0, 255, 128, 64]);
     let file = dir.join("print.toml");

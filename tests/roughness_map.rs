@@ -20,7 +20,6 @@ fn corners_match_constant_widths(kind: &str, map: &str, alphas: [f32; 4]) {
 #[test]
 fn a_conductor_roughness_map_renders_each_texel_as_its_constant_width() {
     let dir = scratch("roughness-map");
-    std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("rough.png");
     let values = [13u8, 128, 255, 51];
     write_png_2x2(&file, 1, &values);
@@ -59,7 +58,6 @@ fn a_rough_dielectric_takes_a_checkerboard_of_widths() {
 #[test]
 fn a_zero_texel_is_the_narrowest_rough_lobe() {
     let dir = scratch("roughness-map-zero");
-    std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("zero.png");
     write_png_2x2(&file, 1, &[0; 4]);
     let body = "type = \"conductor\"\nmetal = \"Au\"";
@@ -122,7 +120,6 @@ fn roughness_maps_a_material_cannot_take_are_refused() {
 #[test]
 fn stokes_info_lists_roughness_maps() {
     let dir = scratch("roughness-map-info");
-    std::fs::create_dir_all(&dir).unwrap();
     let png = dir.join("scratches.png");
     write_png_2x2(&png, 1, &[0, 64, 128, 255]);
     for (body, want) in [

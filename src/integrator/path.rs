@@ -403,7 +403,7 @@ impl<F: Float> Paths<F> {
                 Material::FluorescentDiffuse {
                     reradiation,
                     map: Some(map),
-                } => self.shift(i, &map.at(reradiation, uv_at(scene, hit, i))),
+                } => self.shift(i, &map.at(reradiation, uv[i])),
                 Material::Coated(c) if !coat.mirror.get(i) && c.fluoresces() => {
                     match (c.reradiation(), c.map()) {
                         (Some(b), Some(map)) => self.shift(i, &map.at(b, uv[i])),
