@@ -98,7 +98,7 @@ impl std::fmt::Display for MatrixReport {
         }
     }
 }
-use crate::simd::Float;
+use crate::simd::{map4, Float};
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_RANGE};
 use glam::Vec4;
 use std::path::Path;
@@ -554,7 +554,7 @@ impl Reradiation {
     /// D at the four lanes.
     #[inline]
     pub fn d4(&self, lambda: Vec4) -> Vec4 {
-        Vec4::from_array(self.diagonal.eval4(lambda).to_array().map(Float::nonneg))
+        map4(self.diagonal.eval4(lambda), Float::nonneg)
     }
 
     /// The off-diagonal density F(λi, λo) in nm⁻¹ (0 unless cell(λi) < cell(λo)).

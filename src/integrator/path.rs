@@ -26,7 +26,7 @@ use crate::medium::tracking;
 use crate::method::{Dispersion, Shifting, Spectral};
 use crate::sampler::{mix64, LazyStream, Pcg32};
 use crate::scene::Scene;
-use crate::simd::{Float, Lanes, Mask, Spec, V3};
+use crate::simd::{map4, Float, Lanes, Mask, Spec, V3};
 use glam::{Vec2, Vec3, Vec4};
 
 /// The lane layout of a path's result: all four camera wavelengths, or, for a path split
@@ -473,7 +473,7 @@ impl<F: Float> Paths<F> {
                         let rho = Spec::from_fn(|i| match base.get(i) {
                             true => {
                                 let at = map.at(b, uv[i]);
-                                Vec4::from_array(self.lambda.path(i).to_array().map(|l| at.d(l)))
+                                map4(self.lambda.path(i), |l| at.d(l))
                             }
                             false => Vec4::ZERO,
                         });

@@ -48,14 +48,14 @@
 use super::phase::HenyeyGreenstein;
 use crate::error::Detail;
 use crate::fluoro::{Reradiation, ShiftSample};
-use crate::simd::Float;
+use crate::simd::{map4, Float};
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 use glam::Vec4;
 
 /// A coefficient per lane as used here: negative and NaN count as 0.
 #[inline]
 fn nonneg4(v: Vec4) -> Vec4 {
-    Vec4::from_array(v.to_array().map(Float::nonneg))
+    map4(v, Float::nonneg)
 }
 
 /// What a fluorescent medium adds to the extinction on camera paths (module docs).
@@ -243,7 +243,7 @@ impl Homogeneous {
     #[inline]
     pub fn sigma_se(&self, lambda: Vec4) -> Vec4 {
         match &self.fluorescence {
-            Some(f) => Vec4::from_array(lambda.to_array().map(|l| f.shift.sigma_se(l))) * f.scale,
+            Some(f) => map4(lambda, |l| f.shift.sigma_se(l)) * f.scale,
             None => Vec4::ZERO,
         }
     }
@@ -253,7 +253,7 @@ impl Homogeneous {
     #[inline]
     pub fn sigma_sa(&self, lambda: Vec4) -> Vec4 {
         match &self.fluorescence {
-            Some(f) => Vec4::from_array(lambda.to_array().map(|l| f.shift.sigma_sa(l))) * f.scale,
+            Some(f) => map4(lambda, |l| f.shift.sigma_sa(l)) * f.scale,
             None => Vec4::ZERO,
         }
     }

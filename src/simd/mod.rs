@@ -32,6 +32,13 @@ pub use paths::{F4, F8, M4, M8};
 pub use spec::Spec;
 pub use vec3::V3;
 
+/// `f` applied to each of the four HWSS wavelengths' values: `Vec4::to_array().map(f)`
+/// written out, since the compiler leaves that closure as a call per element in hot code.
+#[inline(always)]
+pub fn map4(v: glam::Vec4, f: impl Fn(f32) -> f32) -> glam::Vec4 {
+    glam::Vec4::new(f(v.x), f(v.y), f(v.z), f(v.w))
+}
+
 use std::fmt::Debug;
 use std::ops::{
     Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, DivAssign, Index, IndexMut, Mul,

@@ -16,8 +16,9 @@
 
 use super::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::error::{Detail, Error};
-use crate::simd::{Float, Mask};
+use crate::simd::{Float, Mask, F4, M4};
 use crate::Result;
+use glam::Vec4;
 use std::path::Path;
 
 /// A piecewise-linear curve over wavelength (nm), zero outside its samples.
@@ -141,6 +142,15 @@ impl Tabulated {
         let t = (lambda - w[i]) / (w[i + 1] - w[i]);
         let (v0, v1) = (self.values[i], self.values[i + 1]);
         v0 + t * (v1 - v0)
+    }
+
+    /// [`Tabulated::eval`] at four wavelengths in one SIMD evaluation: [`Self::eval_w`] at
+    /// width 4 across the wavelengths instead of the paths, so the same bits as four
+    /// `eval`s (every width runs the same arithmetic) for a quarter of the instructions.
+    #[inline]
+    pub fn eval4(&self, lambda: Vec4) -> Vec4 {
+        let v = self.eval_w(F4::from_fn(|k| lambda[k]), M4::splat(true));
+        Vec4::from_array(v.0.to_array())
     }
 
     /// [`Tabulated::eval`] for the W paths of `m` (0 elsewhere), all at once on the

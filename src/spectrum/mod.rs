@@ -31,7 +31,7 @@ pub mod upsample;
 mod wavelengths;
 
 use crate::error::Detail;
-use crate::simd::{Float, Mask, Spec};
+use crate::simd::{map4, Float, Mask, Spec};
 use glam::Vec4;
 
 pub use blackbody::{peak_value as blackbody_peak_value, peak_wavelength, planck};
@@ -156,18 +156,16 @@ impl Spectrum {
     pub fn eval4(&self, lambda: Vec4) -> Vec4 {
         match self {
             Spectrum::Constant(c) => Vec4::splat(*c),
-            Spectrum::Tabulated(t) => Vec4::from_array(lambda.to_array().map(|l| t.eval(l))),
+            Spectrum::Tabulated(t) => t.eval4(lambda),
             Spectrum::Blackbody { kelvin, normalise } => {
                 let norm = if *normalise {
                     1.0 / blackbody_peak_value(*kelvin)
                 } else {
                     1.0
                 };
-                Vec4::from_array(lambda.to_array().map(|l| planck(l, *kelvin) * norm))
+                map4(lambda, |l| planck(l, *kelvin) * norm)
             }
-            Spectrum::NarrowBand { centre, fwhm } => {
-                Vec4::from_array(lambda.to_array().map(|l| gaussian(l, *centre, *fwhm)))
-            }
+            Spectrum::NarrowBand { centre, fwhm } => map4(lambda, |l| gaussian(l, *centre, *fwhm)),
             Spectrum::Rgb(r) => r.eval4(lambda),
             Spectrum::Scaled(inner, k) => *k * inner.eval4(lambda),
         }
@@ -180,6 +178,11 @@ impl Spectrum {
     pub fn eval_w<F: Float>(&self, lambda: &Spec<F>, m: F::Mask) -> Spec<F> {
         match self {
             Spectrum::Constant(c) => Spec::splat(*c).masked(m),
+            // One path: its four wavelengths in one SIMD evaluation (the same bits).
+            Spectrum::Tabulated(t) if F::WIDTH == 1 => Spec::from_fn(|i| match m.get(i) {
+                true => t.eval4(lambda.path(i)),
+                false => Vec4::ZERO,
+            }),
             Spectrum::Tabulated(t) => Spec([
                 t.eval_w(lambda[0], m),
                 t.eval_w(lambda[1], m),

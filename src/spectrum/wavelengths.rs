@@ -17,7 +17,7 @@
 //!   keeps every wavelength possible (spectral output, UV-lit scenes) and bounds r̄ḡb̄/p,
 //!   so no lane's weight can blow up.
 
-use crate::simd::{Float, Spec};
+use crate::simd::{map4, Float, Spec};
 use glam::Vec4;
 use std::sync::OnceLock;
 
@@ -185,11 +185,7 @@ impl Wavelengths {
             Wavelengths::Uniform => None,
             Wavelengths::Visible => {
                 let t = visible_table();
-                Some(Vec4::from_array(
-                    lambda
-                        .to_array()
-                        .map(|l| cell(l).map_or(0.0, |i| t.weight[i])),
-                ))
+                Some(map4(lambda, |l| cell(l).map_or(0.0, |i| t.weight[i])))
             }
         }
     }
