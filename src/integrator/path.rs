@@ -394,7 +394,11 @@ impl<F: Float> Paths<F> {
         let nrm = shading_normals(scene, hit, s, ng, wo);
         let uv = texture_coords(scene, hit, s, &mat);
         let coat = self.choose_coat(scene, &mat, s, &nrm, wo, &uv);
-        for i in s.iter() {
+        let shifts = match scene.features.fluorescent_surfaces {
+            true => s,
+            false => F::Mask::splat(false),
+        };
+        for i in shifts.iter() {
             let shifted = match &scene.materials[mat[i] as usize] {
                 Material::FluorescentDiffuse {
                     reradiation,
@@ -442,6 +446,9 @@ impl<F: Float> Paths<F> {
         wo: V3<F>,
         uv: &F::Arr<Vec2>,
     ) -> CoatChoice<F> {
+        if !scene.features.coated {
+            return CoatChoice::none();
+        }
         let on_coat = |i: usize| matches!(scene.materials[mat[i] as usize], Material::Coated(_));
         let coated = m & F::Mask::from_fn(|i| m.get(i) && on_coat(i));
         if coated.none() {
@@ -734,12 +741,16 @@ impl<F: Float> Paths<F> {
         }
         let refracts = (ng.dot(bs.wi) * ng.dot(wo)).lt(zero);
         if opts.method.dispersion == Dispersion::Split {
-            let apart = s
-                & bs.specular
-                & refracts
-                & F::Mask::from_fn(|i| {
-                    (1..4).any(|k| self.ratio[k].get(i) != 0.0 && bs.pdf[k].get(i) == 0.0)
-                });
+            let refracted = s & bs.specular & refracts;
+            let apart = match refracted.any() {
+                false => refracted,
+                true => {
+                    refracted
+                        & F::Mask::from_fn(|i| {
+                            (1..4).any(|k| self.ratio[k].get(i) != 0.0 && bs.pdf[k].get(i) == 0.0)
+                        })
+                }
+            };
             for i in apart.iter() {
                 let uv = uv_at(scene, hit, i);
                 let lobe = scene.materials[mat[i] as usize].at_uv(uv, self.lambda.path(i));
@@ -910,7 +921,7 @@ fn texture_coords<F: Float>(
     m: F::Mask,
     mat: &F::Arr<u32>,
 ) -> F::Arr<Vec2> {
-    if !scene.any_textured {
+    if !scene.features.textured {
         return Lanes::from_fn(|_| Vec2::ZERO);
     }
     let textured = |i: usize| scene.materials[mat[i] as usize].is_textured();
@@ -941,6 +952,9 @@ fn shading_normals<F: Float>(
     ng: V3<F>,
     wo: V3<F>,
 ) -> Normals<F> {
+    if !scene.features.shading {
+        return Normals::flat(ng);
+    }
     // One look at each hit's geometry: its shading normal and tangent, if it has them.
     let nt: F::Arr<(Option<Vec3>, Option<Vec3>)> = Lanes::from_fn(|i| {
         if !m.get(i) {

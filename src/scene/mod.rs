@@ -175,9 +175,9 @@ pub struct Scene {
     pub render: RenderDesc,
     /// Materials, by index.
     pub materials: Vec<Material>,
-    /// Whether any material is textured ([`Material::is_textured`]): without one, no
-    /// surface step looks up texture coordinates.
-    pub any_textured: bool,
+    /// What the scene's materials and meshes use: a surface step skips the work of what
+    /// none of them has.
+    pub features: Features,
     /// Material names, by index.
     pub material_names: Vec<String>,
     /// Per Embree geometry id.
@@ -197,6 +197,37 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// Named regions of interest of the image (`[[region]]`), in file order.
     pub regions: Vec<Region>,
+}
+
+/// What a scene uses, so that the surface step can skip what it does not (the image is the
+/// same either way: skipped work would find nothing to do).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Features {
+    /// Some material is textured ([`Material::is_textured`]): texture coordinates.
+    pub textured: bool,
+    /// Some surface material shifts wavelengths (fluorescent, bare or under a coat).
+    pub fluorescent_surfaces: bool,
+    /// Some material is coated: the choice between coat and base.
+    pub coated: bool,
+    /// Some mesh has shading normals or texture directions.
+    pub shading: bool,
+}
+
+impl Features {
+    /// The features of these materials and meshes.
+    pub fn of(materials: &[Material], geometries: &[Geometry]) -> Features {
+        let any = |f: fn(&Material) -> bool| materials.iter().any(f);
+        Features {
+            textured: any(Material::is_textured),
+            fluorescent_surfaces: any(|m| match m {
+                Material::FluorescentDiffuse { .. } => true,
+                Material::Coated(c) => c.fluoresces(),
+                _ => false,
+            }),
+            coated: any(|m| matches!(m, Material::Coated(_))),
+            shading: geometries.iter().any(|g| g.shading.is_some()),
+        }
+    }
 }
 
 /// A named region of interest (`[[region]]`): a rectangle of pixels of the scene file's
@@ -432,7 +463,7 @@ impl Builder<'_> {
             accel,
             camera,
             render: d.render.clone(),
-            any_textured: materials.items.iter().any(Material::is_textured),
+            features: Features::of(&materials.items, &geometries),
             materials: materials.items,
             material_names: materials.names,
             geometries,
