@@ -320,3 +320,68 @@ fn shift_path<F: Float>(
     ratio.set_path(i, r);
     alive
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fluoro::map::FluorescenceMap;
+    use crate::spectrum::Spectrum;
+    use crate::texture::scalar::ScalarTexture;
+    use glam::Vec2;
+
+    /// A print at full strength with the dye's own diagonal is the dye itself: every shift,
+    /// constant or independent, leaves the same wavelengths, weights and MIS ratios, bit for
+    /// bit (the map passes D(λo) and s = 1 to the same arithmetic). Catches a print that
+    /// drops or misweighs the secondary lanes, which no image test can see: such a print
+    /// is still unbiased, only noisier.
+    #[test]
+    fn a_full_strength_print_with_its_own_diagonal_shifts_as_the_dye() {
+        let emission = Spectrum::NarrowBand {
+            centre: 560.0,
+            fwhm: 40.0,
+        };
+        let rr = Reradiation::from_dye(
+            Spectrum::Constant(0.3),
+            &Spectrum::Constant(0.5),
+            &emission,
+            0.9,
+            5.0,
+        )
+        .unwrap();
+        let map = FluorescenceMap {
+            diagonal: None,
+            strength: ScalarTexture::Constant(1.0),
+        };
+        let print = map.at(&rr, Vec2::new(0.25, 0.75));
+        let range = LAMBDA_MAX - LAMBDA_MIN;
+        let mut all_lanes_shifted = 0;
+        for mode in [Shifting::Constant, Shifting::Independent] {
+            for n in 0..400u64 {
+                let hero = 380.0 + 0.9 * n as f32;
+                let lambda = Vec4::from_array(
+                    [0.0, 0.25, 0.5, 0.75]
+                        .map(|k| LAMBDA_MIN + (hero - LAMBDA_MIN + k * range) % range),
+                );
+                let run = |model: &dyn ShiftModel| {
+                    let (mut l, mut b, mut r) = (lambda, Vec4::ONE, Vec4::ONE);
+                    let mut rng = Pcg32::for_sample(3, n, 1);
+                    let alive = shift_wavelengths(model, mode, &mut l, &mut b, &mut r, &mut rng);
+                    let bits = |v: Vec4| v.to_array().map(f32::to_bits);
+                    (alive, bits(l), bits(b), bits(r))
+                };
+                let (want, got) = (run(&rr), run(&print));
+                assert_eq!(
+                    got, want,
+                    "{mode:?}, hero {hero} nm: the print shifts otherwise"
+                );
+                let kept = |k: usize| want.1[k] == lambda[k].to_bits();
+                let every_lane = (1..4).all(|k| f32::from_bits(want.3[k]) > 0.0 && !kept(k));
+                all_lanes_shifted += usize::from(want.0 && every_lane);
+            }
+        }
+        assert!(
+            all_lanes_shifted > 50,
+            "only {all_lanes_shifted} shifts moved every lane: the test would not see lanes dropped"
+        );
+    }
+}
