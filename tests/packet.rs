@@ -604,3 +604,39 @@ fn hits_carry_barycentrics_at_every_width() {
     check::<F4>(&scene, org, &dir);
     check::<F8>(&scene, org, &dir);
 }
+
+/// `stokes bench limit` replays a render's rays by kind: the log must hold one camera ray
+/// per pixel sample, each from the camera, and as many rays in all as the render counts,
+/// in every mode (and none but camera rays when paths end at their first hit).
+#[test]
+fn the_ray_log_sorts_every_traced_ray_by_kind() {
+    use stokes::integrator::render::{render, trace_rays};
+    let mut scene = scene_file("cornell-box.toml");
+    scene.set_resolution(16, 16);
+    let samples = 16 * 16 * 4;
+    for rays in [Rays::Single, Rays::Packet, Rays::Packet8, Rays::Lockstep] {
+        for depth in [1, -1] {
+            let o = opts(16, 16, 4, rays, Dispersion::Drop)
+                .threads(1)
+                .max_depth(depth)
+                .opts;
+            let log = trace_rays(&scene, &o, 0, 4);
+            let what = format!("{rays:?}, depth {depth}");
+            assert_eq!(log.camera.len(), samples, "{what}: camera rays");
+            let eye = scene.camera.position;
+            assert!(log.camera.iter().all(|r| r.org == eye), "{what}");
+            let logged = log.camera.len() + log.bounce.len() + log.shadow.len();
+            assert!(log.segment.is_empty(), "{what}: no media, no segments");
+            let traced = render(&scene, &o, &|| {}).unwrap().stats.rays;
+            assert_eq!(logged as u64, traced, "{what}: logged against traced rays");
+            if depth == 1 {
+                assert_eq!(logged, samples, "{what}: only camera rays");
+            } else {
+                assert!(
+                    log.bounce.len() > samples && log.shadow.len() > samples,
+                    "{what}"
+                );
+            }
+        }
+    }
+}
