@@ -1192,3 +1192,59 @@ fn warnings_for_lights_that_show_nothing() {
         assert!(w.len() == 1 && w[0].contains(fragment), "{emission}: {w:?}");
     }
 }
+
+/// A surface dye's absorption given as a `narrow_band` line (unit integral, so a peak of a
+/// few per cent) is warned about, with the `scale` that absorbs 90 % at the peak; a line
+/// scaled to a real peak, and a tabulated absorption, are not.
+#[test]
+fn a_surface_dye_absorbing_a_few_per_cent_at_most_is_warned_about() {
+    let warnings = |absorption: &str| {
+        let text = format!(
+            r#"
+[camera]
+position = [0, 0, 1]
+look_at = [0, 0, 0]
+fov = 60
+resolution = [8, 8]
+
+[materials.paper]
+type = "fluorescent_diffuse"
+reflectance = 0.2
+dye = {{ absorption = {absorption}, emission = {{ narrow_band = 520, fwhm = 40 }}, quantum_yield = 0.9 }}
+
+[[shapes]]
+type = "quad"
+origin = [-1, -1, 0]
+edge_u = [2, 0, 0]
+edge_v = [0, 2, 0]
+material = "paper"
+
+[[lights]]
+type = "environment"
+radiance = 0.1
+"#
+        );
+        scene_from(&text).warnings
+    };
+    let w = warnings("{ narrow_band = 440, fwhm = 40 }");
+    assert!(
+        w.len() == 1
+            && w[0].contains("materials.paper.dye.absorption")
+            && w[0].contains("absorbs at most 2.3 %")
+            && w[0].contains("`scale = 38.3")
+            && w[0].contains("unit integral"),
+        "{w:?}"
+    );
+    let scaled = warnings("{ narrow_band = 440, fwhm = 40, scale = 2 }");
+    assert!(
+        scaled.len() == 1 && scaled[0].contains("4.7 %"),
+        "{scaled:?}"
+    );
+    for fine in [
+        "{ narrow_band = 440, fwhm = 40, scale = 30 }",
+        "{ wavelengths = [400, 440, 480], values = [0, 0.9, 0] }",
+        "0.6",
+    ] {
+        assert_eq!(warnings(fine), Vec::<String>::new(), "{fine}");
+    }
+}

@@ -610,6 +610,7 @@ fn reradiation(
             })?;
             let dye = key.field("dye");
             let a = Spectrum::from_desc(&d.absorption, &dye.field("absorption"), ctx, Some(Range::Unit))?;
+            warn_faint_line(&a, &dye.field("absorption"), ctx);
             let e = Spectrum::from_desc(&d.emission, &dye.field("emission"), ctx, Some(Range::NonNegative))?;
             let cell = fluoro::dye_cell_width(&dye, d.quantum_yield, d.cell_nm)?;
             Reradiation::from_dye(diagonal, &a, &e, d.quantum_yield, cell).map_err(|e| dye.error(e))
@@ -631,6 +632,36 @@ fn reradiation(
         )),
     }
 }
+
+/// A surface dye's absorption is the fraction absorbed, at most 1, but a `narrow_band` line
+/// has unit *integral*: `{ narrow_band = 450, fwhm = 40 }` absorbs about 2 % at its peak,
+/// and the dye does next to nothing. Almost never what was meant, so say so, with the
+/// `scale` that would make the peak absorb 90 %.
+fn warn_faint_line(a: &Spectrum, key: &Key, ctx: &mut Context) {
+    let (line, scale) = match a {
+        Spectrum::NarrowBand { .. } => (a, 1.0),
+        Spectrum::Scaled(inner, k) if matches!(**inner, Spectrum::NarrowBand { .. }) => {
+            (&**inner, *k)
+        }
+        _ => return,
+    };
+    let peak = a.max_value();
+    if peak < FAINT_ABSORPTION {
+        let want = 0.9 * scale / peak;
+        ctx.warn(
+            key,
+            format!(
+                "the dye absorbs at most {:.1} % of the light at any wavelength: a narrow_band has unit integral \
+                 (its peak is {:.4} per nm), not unit peak; `scale = {want:.3}` would absorb 90 % at the peak",
+                100.0 * peak,
+                line.max_value()
+            ),
+        );
+    }
+}
+
+/// A surface dye whose absorption peaks below this share is reported ([`warn_faint_line`]).
+const FAINT_ABSORPTION: f32 = 0.05;
 
 /// The texture `desc` at `key` if it is one (`texture` or `checkerboard`), else `None`.
 fn texture_from_desc(
