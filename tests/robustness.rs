@@ -1248,3 +1248,39 @@ radiance = 0.1
         assert_eq!(warnings(fine), Vec::<String>::new(), "{fine}");
     }
 }
+
+/// Re-radiation that totals more than 1 is reported once per material, with the span of
+/// wavelengths and the worst total, not once per row of the matrix.
+#[test]
+fn energy_gain_is_one_warning_per_material() {
+    let text = r#"
+[camera]
+position = [0, 0, 1]
+look_at = [0, 0, 0]
+fov = 60
+resolution = [8, 8]
+
+[materials.paper]
+type = "fluorescent_diffuse"
+reflectance = 0.5
+dye = { absorption = { narrow_band = 440, fwhm = 40, scale = 30 }, emission = { narrow_band = 520, fwhm = 40 }, quantum_yield = 0.9 }
+
+[[shapes]]
+type = "quad"
+origin = [-1, -1, 0]
+edge_u = [2, 0, 0]
+edge_v = [0, 2, 0]
+material = "paper"
+
+[[lights]]
+type = "environment"
+radiance = 0.1
+"#;
+    let w = scene_from(text).warnings;
+    assert!(
+        w.len() == 1
+            && w[0].starts_with("materials.paper: re-radiation totals more than 1 at 12 wavelengths over 429–451 nm")
+            && w[0].contains("at most 1.133 at 439 nm"),
+        "{w:?}"
+    );
+}

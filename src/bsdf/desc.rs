@@ -581,18 +581,30 @@ fn fluorescent_diffuse(
         Some(map) => map.energy_gain_rows(&rr),
         None => rr.energy_gain_rows(),
     };
-    for (l, total) in gains {
-        ctx.warn(
-            key,
-            format!(
-                "re-radiation at {l} nm totals {total:.3} > 1 (the surface creates energy there)"
-            ),
-        );
+    if let Some(what) = energy_gain_summary(&gains) {
+        ctx.warn(key, what);
     }
     Ok(Material::FluorescentDiffuse {
         reradiation: Arc::new(rr),
         map: map.map(Arc::new),
     })
+}
+
+/// One line for the rows (wavelength, total) where re-radiation totals more than 1: how
+/// many, their span and the worst. A line per row would bury every other message.
+fn energy_gain_summary(gains: &[(f32, f32)]) -> Option<String> {
+    let (first, last) = (gains.first()?.0, gains.last()?.0);
+    let (at, worst) = gains.iter().fold(
+        (first, 0.0f32),
+        |w, &(l, t)| if t > w.1 { (l, t) } else { w },
+    );
+    let span = match gains.len() {
+        1 => format!("at {first} nm"),
+        n => format!("at {n} wavelengths over {first}–{last} nm"),
+    };
+    Some(format!(
+        "re-radiation totals more than 1 {span}, at most {worst:.3} at {at} nm (the surface creates energy there)"
+    ))
 }
 
 /// A fluorescent_diffuse material's re-radiation: a parametric dye over the reflectance
