@@ -358,8 +358,8 @@ impl<F: Width> Tracer<F> {
         let u = F::from_fn(|i| xyu[i][2]);
         let dirs = camera.dirs(x, y);
         let lambda = match opts.method.spectral {
-            Spectral::Hwss => spectrum::hwss(opts.method.wavelengths, u),
-            Spectral::Mono => spectrum::mono(opts.method.wavelengths, u),
+            Spectral::Hwss => spectrum::hwss(opts.method.wavelengths, u, m),
+            Spectral::Mono => spectrum::mono(opts.method.wavelengths, u, m),
         };
         for i in m.iter() {
             lambdas[slot[i] as usize] = lambda.path(i);

@@ -17,7 +17,7 @@
 //!   keeps every wavelength possible (spectral output, UV-lit scenes) and bounds r̄ḡb̄/p,
 //!   so no lane's weight can blow up.
 
-use crate::simd::{map4, Float, Spec};
+use crate::simd::{map4, Float, Mask, Spec};
 use glam::Vec4;
 use std::sync::OnceLock;
 
@@ -252,10 +252,11 @@ fn to_lambda<F: Float>(u: F) -> F {
     (F::splat(LAMBDA_MIN) + u * F::splat(LAMBDA_RANGE)).clamp(LAMBDA_MIN, LAMBDA_BELOW_MAX)
 }
 
-/// The HWSS wavelengths of W paths from their uniforms `u`, drawn with the pdf `w`: the
-/// hero at CDF position `u`, the others a quarter of the CDF apart, wrapped.
+/// The HWSS wavelengths of the W paths of `m` from their uniforms `u`, drawn with the pdf
+/// `w`: the hero at CDF position `u`, the others a quarter of the CDF apart, wrapped (the
+/// other paths' lanes are left meaningless: a table search per lane is not free).
 #[inline(always)]
-pub fn hwss<F: Float>(w: Wavelengths, u: F) -> Spec<F> {
+pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
     let one = F::splat(1.0);
     let table = visible_table();
     let lane = |k: f32| {
@@ -265,19 +266,26 @@ pub fn hwss<F: Float>(w: Wavelengths, u: F) -> Spec<F> {
             Wavelengths::Uniform => to_lambda(v),
             Wavelengths::Visible => {
                 let bucket = (v * F::splat(GUIDE as f32)).to_index();
-                F::from_fn(|i| table.sample_in_bucket(bucket[i] as usize, v.get(i)))
+                F::from_fn(|i| match m.get(i) {
+                    true => table.sample_in_bucket(bucket[i] as usize, v.get(i)),
+                    false => LAMBDA_MIN,
+                })
             }
         }
     };
     Spec([lane(0.0), lane(1.0), lane(2.0), lane(3.0)])
 }
 
-/// One wavelength per path drawn with the pdf `w`, in every lane (monochromatic sampling).
+/// One wavelength for each path of `m` drawn with the pdf `w`, in every lane
+/// (monochromatic sampling; the other paths' lanes are left meaningless).
 #[inline(always)]
-pub fn mono<F: Float>(w: Wavelengths, u: F) -> Spec<F> {
+pub fn mono<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
     match w {
         Wavelengths::Uniform => Spec::broadcast(to_lambda(u)),
-        _ => Spec::broadcast(F::from_fn(|i| w.sample(u.get(i)))),
+        _ => Spec::broadcast(F::from_fn(|i| match m.get(i) {
+            true => w.sample(u.get(i)),
+            false => LAMBDA_MIN,
+        })),
     }
 }
 
