@@ -675,3 +675,50 @@ fn an_rgb_medium_attenuates_by_its_upsampled_spectrum() {
         }
     }
 }
+
+/// Light seen through a scattering slab: forward scattering (g = 0.8) lets much more of it
+/// through towards the camera than back scattering (g = −0.8), with next-event estimation
+/// and phase sampling alike. Catches a phase function evaluated or sampled about the
+/// wrong direction, which an isotropic medium cannot show.
+#[test]
+fn forward_scattering_lets_more_light_through_a_slab_than_back_scattering() {
+    let slab = |g: f32| {
+        format!(
+            r#"
+[camera]
+position = [0, 0, -5]
+look_at = [0, 0, 0]
+fov = 12
+resolution = [12, 12]
+
+[media.fog]
+sigma_s = 3.0
+g = {g}
+
+[[shapes]]
+type = "box"
+min = [-20, -20, -0.5]
+max = [20, 20, 0.5]
+interior = "fog"
+
+[[shapes]]
+type = "quad"
+origin = [-1, 1, 2]
+edge_u = [2, 0, 0]
+edge_v = [0, -2, 0]
+emission = {{ radiance = 1.0 }}
+"#
+        )
+    };
+    let mean = |g: f32| {
+        let mut scene = scene_from(&slab(g));
+        let film = render_with(&mut scene, 12, 64, 5, Spectral::Hwss, Tracking::Classic, -1);
+        let all: Vec<usize> = (0..144).collect();
+        region_mean(&film, &all).0[1]
+    };
+    let (forward, backward) = (mean(0.8), mean(-0.8));
+    assert!(
+        forward > 2.0 * backward && backward > 0.0,
+        "g = 0.8 lets {forward} through, g = -0.8 {backward}"
+    );
+}
