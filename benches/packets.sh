@@ -4,6 +4,7 @@
 #
 #   benches/packets.sh [OUT_DIR]          # default out/packets; about 40 minutes on 2 cores
 #   BASE=c5eae78 benches/packets.sh       # also instruction counts of that commit's binary
+#   PARTS="5" BASE=fd54603 benches/packets.sh   # only the parts listed (numbers below)
 #
 # 1. stokes bench render: packet, packet8, lockstep and single rays, depths 1, 3 and
 #    unbounded, 1 and 2 threads, on the Cornell box (512²) and the 100k-triangle sphere
@@ -23,8 +24,10 @@ out=${1:-out/packets}
 mkdir -p "$out"
 cargo build --release -q
 B=target/release/stokes
+part() { [[ " ${PARTS:-1 2 3 4 5 6} " == *" $1 "* ]]; }
 grep -m1 'model name' /proc/cpuinfo | tee "$out/cpu.txt"
 
+if part 1; then
 echo "== 1. bench render"
 for scene in cornell-box sphere-100k; do
     $B bench render "scenes/$scene.toml" --rays single,packet,packet8,lockstep \
@@ -36,12 +39,16 @@ $B bench render scenes/cornell-box.toml --rays packet,packet8 --layouts quad,pix
 $B bench render scenes/cornell-box.toml --res 256x256 --max-depth 6 --threads 2 \
     --rays single,packet,lockstep,packet8 --seconds 30 --repetitions 8 | tee "$out/depth6-cornell-box.txt"
 
+fi
+if part 2; then
 echo "== 2. bench limit"
 for rays in packet single; do
     $B bench limit scenes/cornell-box.toml --res 256x256 --threads 1 --rays "$rays" --seconds 4 \
         | tee "$out/limit-cornell-box-$rays.txt"
 done
 
+fi
+if part 3; then
 echo "== 3. against Mitsuba 3 (256², 64 spp, depth 6, 2 threads)"
 if python3 -c 'import mitsuba' 2>/dev/null; then
     for round in 1 2 3; do
@@ -59,6 +66,8 @@ else
     echo "mitsuba not installed (pip install mitsuba; apt-get install libllvm19): skipped" | tee "$out/mitsuba.txt"
 fi
 
+fi
+if part 4; then
 echo "== 4. fluorescence's cost"
 sed -e 's/type = "fluorescent_diffuse"/type = "diffuse"/' -e '/^dye = /d' -e '/^matrix = /d' \
     scenes/fluorescent-surfaces.toml > scenes/.no-dyes.toml
@@ -68,6 +77,8 @@ for s in scenes/fluorescent-surfaces.toml scenes/.no-dyes.toml; do
         | tail -1 | sed "s|^|$s |"
 done | tee "$out/fluorescence-cost.txt"
 
+fi
+if part 5; then
 echo "== 5. instructions per sample (callgrind)"
 per_sample() { # binary scene rays
     local a b
@@ -93,6 +104,8 @@ for bin in "${bins[@]}"; do
 done | tee "$out/instructions.txt"
 if [ -n "${BASE:-}" ]; then git worktree remove --force "$tmp/src"; rm -rf "$tmp"; fi
 
+fi
+if part 6; then
 echo "== 6. where a Cornell-box sample's instructions go (callgrind, by source file), and the width-1 estimator's scalar against packed multiplies"
 split() { # rays spp -> "embree spectra rng rest" instruction totals
     valgrind --tool=callgrind --callgrind-out-file="$out/cg-$1-$2.out" "$B" render scenes/cornell-box.toml \
@@ -117,3 +130,4 @@ objdump -d --no-show-raw-insn "$B" | awk '
     /^[0-9a-f]+ </ { if (inrun && body ~ /rtcIntersect1@/) print body; inrun = 0 }
     /^[0-9a-f]+ <.*Tracer.*3run/ { inrun = 1; body = ""; next }
     inrun { body = body "\n" $0 }' | grep -oE '\b(mulss|mulps)\b' | sort | uniq -c | tee "$out/width1-multiplies.txt"
+fi
