@@ -1193,14 +1193,11 @@ fn warnings_for_lights_that_show_nothing() {
     }
 }
 
-/// A surface dye's absorption given as a `narrow_band` line (unit integral, so a peak of a
-/// few per cent) is warned about, with the `scale` that absorbs 90 % at the peak; a line
-/// scaled to a real peak, and a tabulated absorption, are not.
-#[test]
-fn a_surface_dye_absorbing_a_few_per_cent_at_most_is_warned_about() {
-    let warnings = |absorption: &str| {
-        let text = format!(
-            r#"
+/// The warnings of a quad of fluorescent paper (reflectance `reflectance`, a dye absorbing
+/// `absorption` and emitting around 520 nm) under a grey sky.
+fn paper_warnings(reflectance: f32, absorption: &str) -> Vec<String> {
+    let text = format!(
+        r#"
 [camera]
 position = [0, 0, 1]
 look_at = [0, 0, 0]
@@ -1209,7 +1206,7 @@ resolution = [8, 8]
 
 [materials.paper]
 type = "fluorescent_diffuse"
-reflectance = 0.2
+reflectance = {reflectance}
 dye = {{ absorption = {absorption}, emission = {{ narrow_band = 520, fwhm = 40 }}, quantum_yield = 0.9 }}
 
 [[shapes]]
@@ -1223,10 +1220,16 @@ material = "paper"
 type = "environment"
 radiance = 0.1
 "#
-        );
-        scene_from(&text).warnings
-    };
-    let w = warnings("{ narrow_band = 440, fwhm = 40 }");
+    );
+    scene_from(&text).warnings
+}
+
+/// A surface dye's absorption given as a `narrow_band` line (unit integral, so a peak of a
+/// few per cent) is warned about, with the `scale` that absorbs 90 % at the peak; a line
+/// scaled to a real peak, and a tabulated absorption, are not.
+#[test]
+fn a_surface_dye_absorbing_a_few_per_cent_at_most_is_warned_about() {
+    let w = paper_warnings(0.2, "{ narrow_band = 440, fwhm = 40 }");
     assert!(
         w.len() == 1
             && w[0].contains("materials.paper.dye.absorption")
@@ -1235,7 +1238,7 @@ radiance = 0.1
             && w[0].contains("unit integral"),
         "{w:?}"
     );
-    let scaled = warnings("{ narrow_band = 440, fwhm = 40, scale = 2 }");
+    let scaled = paper_warnings(0.2, "{ narrow_band = 440, fwhm = 40, scale = 2 }");
     assert!(
         scaled.len() == 1 && scaled[0].contains("4.7 %"),
         "{scaled:?}"
@@ -1245,7 +1248,7 @@ radiance = 0.1
         "{ wavelengths = [400, 440, 480], values = [0, 0.9, 0] }",
         "0.6",
     ] {
-        assert_eq!(warnings(fine), Vec::<String>::new(), "{fine}");
+        assert_eq!(paper_warnings(0.2, fine), Vec::<String>::new(), "{fine}");
     }
 }
 
@@ -1253,33 +1256,12 @@ radiance = 0.1
 /// wavelengths and the worst total, not once per row of the matrix.
 #[test]
 fn energy_gain_is_one_warning_per_material() {
-    let text = r#"
-[camera]
-position = [0, 0, 1]
-look_at = [0, 0, 0]
-fov = 60
-resolution = [8, 8]
-
-[materials.paper]
-type = "fluorescent_diffuse"
-reflectance = 0.5
-dye = { absorption = { narrow_band = 440, fwhm = 40, scale = 30 }, emission = { narrow_band = 520, fwhm = 40 }, quantum_yield = 0.9 }
-
-[[shapes]]
-type = "quad"
-origin = [-1, -1, 0]
-edge_u = [2, 0, 0]
-edge_v = [0, 2, 0]
-material = "paper"
-
-[[lights]]
-type = "environment"
-radiance = 0.1
-"#;
-    let w = scene_from(text).warnings;
+    let w = paper_warnings(0.5, "{ narrow_band = 440, fwhm = 40, scale = 30 }");
     assert!(
         w.len() == 1
-            && w[0].starts_with("materials.paper: re-radiation totals more than 1 at 12 wavelengths over 429–451 nm")
+            && w[0].starts_with(
+                "materials.paper: re-radiation totals more than 1 at 12 wavelengths over 429–451 nm"
+            )
             && w[0].contains("at most 1.133 at 439 nm"),
         "{w:?}"
     );
