@@ -292,5 +292,5 @@ fn a_mirror_takes_a_reflectance_texture() {
         }
     }
     let info = scene_from(&plate(&body("{ checkerboard = [0.2, 0.9] }")));
-    assert!(info.any_textured);
+    assert!(info.features.textured);
 }
