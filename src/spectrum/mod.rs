@@ -385,6 +385,29 @@ mod tests {
         assert!((s.max_value() - 1.0).abs() < 1e-6);
     }
 
+    /// Scaling multiplies whatever the spectrum is, nested scales and RGB included.
+    #[test]
+    fn scaling_multiplies_every_kind_and_folds_nested_scales() {
+        let band = Spectrum::narrow_band(500.0, 20.0).unwrap();
+        let rgb = Spectrum::Rgb(RgbSpectrum {
+            coeffs: [-30.0, 25.0, -4.0],
+            scale: 1.5,
+            illuminant: false,
+        });
+        for s in [band.clone(), band.scaled(2.0), rgb.clone(), rgb.scaled(2.0)] {
+            for factor in [3.0, 0.25] {
+                let scaled = s.clone().scaled(factor);
+                for l in [450.0, 500.0, 620.0] {
+                    let (got, want) = (scaled.eval(l), factor * s.eval(l));
+                    assert!(
+                        (got - want).abs() <= 1e-6 * want.abs(),
+                        "{s:?} x {factor} at {l}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn constants_are_recognised() {
         assert_eq!(Spectrum::Constant(2.0).scaled(3.0).is_constant(), Some(6.0));
