@@ -553,3 +553,34 @@ fn delta_e_2000_matches_sharma_test_data() {
         }
     }
 }
+
+/// A tabulated curve at four wavelengths at once (`eval4`, the width-4 look-up run across
+/// the wavelengths) gives the bits of four single `eval`s: on the integer-nm table, off it
+/// (knots beyond 360–830 nm), on a non-integer grid, and for NaN and out-of-range input.
+#[test]
+fn tabulated_eval4_gives_the_bits_of_four_evals() {
+    let curves = [
+        Tabulated::new(vec![400.0, 450.0, 700.0], vec![0.2, 0.8, 0.3]).unwrap(),
+        Tabulated::new(vec![300.0, 500.0, 900.0], vec![0.9, 0.1, 0.7]).unwrap(),
+        Tabulated::new(vec![401.5, 455.25, 690.75], vec![0.3, 0.6, 0.1]).unwrap(),
+        Tabulated::new(vec![550.0], vec![0.4]).unwrap(),
+    ];
+    let special = [f32::NAN, -1.0, 0.0, 359.999, 360.0, 829.999, 830.0, 1e9];
+    let lambdas: Vec<f32> = (0..2000)
+        .map(|i| 290.0 + 0.3137 * i as f32)
+        .chain(special)
+        .collect();
+    for t in &curves {
+        for l in lambdas.chunks(4).filter(|c| c.len() == 4) {
+            let four = t.eval4(Vec4::from_slice(l));
+            for k in 0..4 {
+                assert_eq!(
+                    four[k].to_bits(),
+                    t.eval(l[k]).to_bits(),
+                    "{t:?} at {} nm",
+                    l[k]
+                );
+            }
+        }
+    }
+}
