@@ -38,7 +38,7 @@ light    | src/light.rs, src/light/*.rs | --lib --test light_sampling --test ren
 texture  | src/texture/*.rs, src/fluoro/map.rs | --lib --test textures --test fluorescence_map --test roughness_map --test coated_texture | -- --skip stokes_info_lists
 bsdf     | src/bsdf/*.rs           | --lib --test bsdf_sampling --test packet |
 medium   | src/medium/*.rs         | --lib --test medium_sampling --test media_renders |
-spectrum | src/spectrum/*.rs       | --lib --test spectrum --test colorchecker --test upsample |
+spectrum | src/spectrum/*.rs       | --lib --test spectrum --test colorchecker --test upsample --test wavelengths | -- --skip the_binary_caches_the_table
 path     | src/integrator/path.rs, src/integrator/shadow.rs, src/integrator/mod.rs | --lib --test render_analytic --test media_renders --test packet --test fluorescent_surfaces --test environment --test lights | $SLOW --skip stokes_info_lists
 fluoro   | src/fluoro/*.rs         | --lib --test reradiation --test fluorescent_surfaces --test fluorescence_map | $SLOW --skip stokes_info_lists
 "
