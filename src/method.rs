@@ -145,6 +145,17 @@ pub enum Rays {
     Single,
 }
 
+impl Rays {
+    /// Paths per Embree query.
+    pub fn width(self) -> usize {
+        match self {
+            Rays::Packet | Rays::Lockstep => 4,
+            Rays::Packet8 => 8,
+            Rays::Single => 1,
+        }
+    }
+}
+
 axis!(Rays, "rays", [
     Rays::Packet => "packet": "four paths per Embree query, a lane refilled as soon as its path ends",
     Rays::Packet8 => "packet8": "eight paths per Embree query, a lane refilled as soon as its path ends",

@@ -621,6 +621,23 @@ impl<F: Float> CoatChoice<F> {
 }
 
 impl<F: Float> Lobes<F> {
+    /// The masks of the lobe kinds present (each routine runs once per kind present).
+    pub fn kinds(&self) -> impl Iterator<Item = F::Mask> {
+        [
+            self.diffuse,
+            self.mirror,
+            self.dielectric,
+            self.rough_dielectric,
+            self.conductor,
+            self.rough_conductor,
+            self.coated_base,
+            self.coated_conductor,
+            self.coated_mirror,
+        ]
+        .into_iter()
+        .filter(|k| k.any())
+    }
+
     /// No path on any lobe.
     #[inline(always)]
     fn none() -> Lobes<F> {

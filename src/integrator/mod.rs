@@ -21,6 +21,7 @@
 //! - [`trace`]: the driver that feeds pixel samples to the W lanes and Embree;
 //! - [`render`]: passes, the film and progressive renders.
 
+pub mod census;
 pub mod path;
 pub mod render;
 pub mod shadow;

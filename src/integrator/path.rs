@@ -13,6 +13,7 @@
 //! A shadow ray is deferred, not traced inside the step: its contribution depends on
 //! nothing the step computes afterwards and the step draws no random numbers for it.
 
+use super::census::{self, Part};
 use super::shadow::Shadows;
 use super::trace::Hits;
 use super::{
@@ -310,6 +311,7 @@ impl<F: Float> Paths<F> {
         if deep.none() {
             return m;
         }
+        census::record(Part::Roulette, deep);
         let q = self.beta.max_wavelength().min(F::splat(0.95));
         let u = draw::<F>(&mut self.rng, deep);
         let die = deep & u.ge(q);
@@ -335,17 +337,20 @@ impl<F: Float> Paths<F> {
         children: &mut Vec<Paths<f32>>,
     ) {
         let active = self.alive;
+        census::record(Part::Step, active);
         stats.rays += count(active);
         self.at_camera = F::Mask::splat(false);
         let mut s = active;
         if MEDIA {
             let inside = active & F::Mask::from_fn(|i| self.medium[i] != NO_MEDIUM);
             if inside.any() {
+                census::record(Part::Track, inside);
                 s = (active & !inside) | self.track(scene, opts, hit, inside, stats, shadow);
             }
         }
         let escaped = s & !hit.valid;
         if escaped.any() && scene.lights.environment.is_some() {
+            census::record(Part::Escaped, escaped);
             self.escaped(scene, escaped);
         }
         self.kill(escaped);
@@ -362,6 +367,7 @@ impl<F: Float> Paths<F> {
                 s.get(i) && scene.geometries[hit.geom[i] as usize].is_null_interface()
             });
             if null.any() {
+                census::record(Part::Cross, null);
                 self.cross(scene, hit, null, p, ng);
                 s &= !null;
                 if s.none() {
@@ -424,7 +430,13 @@ impl<F: Float> Paths<F> {
         if s.none() {
             return;
         }
+        census::record(Part::Surface, s);
         let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda, &coat, &uv);
+        if census::ENABLED {
+            for kind in lobes.kinds() {
+                census::record(Part::LobeKinds, kind);
+            }
+        }
         self.light_sample::<MEDIA>(scene, hit, s, &lobes, p, &nrm, wo, stats, shadow);
         self.scatter_surface::<MEDIA>(scene, opts, hit, s, &lobes, &mat, p, &nrm, wo, children);
     }
@@ -552,6 +564,7 @@ impl<F: Float> Paths<F> {
         if facing.none() {
             return;
         }
+        census::record(Part::Emitted, facing);
         let le = self.emission(facing, &e, lights);
         let p_light = |after: F::Mask, pv: &Prev<F>| {
             let d2 = (p - pv.p).length_squared();
@@ -680,6 +693,7 @@ impl<F: Float> Paths<F> {
         stats: &mut PathStats,
         shadow: &mut Shadows<F>,
     ) {
+        census::record(Part::LightSample, m);
         let ls = scene.lights.sample_towards_w(m, p, u);
         let q = m & ls.valid;
         if q.none() {
@@ -699,6 +713,7 @@ impl<F: Float> Paths<F> {
         // No direction sampling finds a delta light: the light sample takes it all.
         let pdf_dir = Spec::select(ls.delta, Spec::zero(), pdf_dir);
         let ray = shadow_ray(p, n, ls.p, ls.n, ls.wi);
+        census::record(Part::ShadowRay, q);
         stats.rays += count(q);
         let base = self.beta * f * le;
         if MEDIA {
@@ -728,6 +743,7 @@ impl<F: Float> Paths<F> {
         wo: V3<F>,
         children: &mut Vec<Paths<f32>>,
     ) {
+        census::record(Part::Scatter, m);
         let zero = F::splat(0.0);
         let ng = nrm.ng;
         let uc = draw::<F>(&mut self.rng, m);
@@ -836,6 +852,7 @@ impl<F: Float> Paths<F> {
             surface = ok;
         }
         if c.any() {
+            census::record(Part::MediumScatter, c);
             self.scatter_medium(scene, opts, c, st, ss, Hg::new(g), d, t, stats, shadow);
         }
         surface

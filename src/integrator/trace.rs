@@ -320,6 +320,7 @@ impl<F: Width> Tracer<F> {
             }
         }
         if fresh.any() {
+            super::census::record(super::census::Part::Start, fresh);
             self.start(scene, opts, seed, fresh, &ids, lambdas);
         }
     }

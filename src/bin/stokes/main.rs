@@ -165,6 +165,15 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
         stats.rays_per_second / 1e6,
         files.exr.display()
     );
+    if stokes::integrator::census::ENABLED {
+        let samples = u64::from(film.spp) * width as u64 * height as u64;
+        let tallies = stokes::integrator::census::take();
+        let lanes = opts.method.rays.width();
+        eprint!(
+            "{}",
+            stokes::integrator::census::table(&tallies, samples, lanes)
+        );
+    }
     Ok(interrupted(&done, || {
         format!(
             "{} holds the {} spp rendered so far (samples {}..{}; continue with --seed-offset {})",
