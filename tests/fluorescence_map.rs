@@ -6,7 +6,7 @@
 //! are refused naming the file and key.
 
 mod common;
-use common::plate::write_png_2x2;
+use common::plate::{write_png, write_png_2x2};
 use common::*;
 use glam::Vec3;
 use stokes::bsdf::Material;
@@ -403,4 +403,33 @@ fn the_energy_check_runs_over_the_maps() {
         reflectance([0.1, 0.9]),
         strength([1.0, 0.05])
     )));
+    // An image map is checked at every texel, not on a coarser grid: a 256-texel strip at
+    // strength 0 but for one texel at full strength, which a 64-point grid would see only
+    // as a blend of it and its neighbour (0.5 + 0.5 × 0.77 < 1).
+    let dir = scratch("fluorescence-map-energy");
+    let strip = dir.join("strip.png");
+    let mut texels = [0u8; 256];
+    texels[1] = 255;
+    write_png(&strip, [256, 1], 1, &texels);
+    let map = format!(
+        "fluorescence = {{ texture = {:?}, wrap = \"clamp\" }}",
+        s(&strip)
+    );
+    assert!(warns(&format!("reflectance = 0.5\n{map}")));
+    texels[1] = 100;
+    write_png(&strip, [256, 1], 1, &texels);
+    assert!(!warns(&format!("reflectance = 0.5\n{map}")));
+    // The same for an image diagonal: black but for one grey texel (sRGB 231, linear
+    // 0.80), at strength 0.5: 0.80 + 0.38 there is over 1, a blend with its black
+    // neighbour (0.40 + 0.38) is not; at strength 0.2 nothing is (0.80 + 0.15).
+    let rgb_strip = dir.join("strip-rgb.png");
+    let mut texels = [0u8; 3 * 256];
+    texels[3..6].fill(231);
+    write_png(&rgb_strip, [256, 1], 3, &texels);
+    let reflectance = format!(
+        "reflectance = {{ texture = {:?}, wrap = \"clamp\" }}",
+        s(&rgb_strip)
+    );
+    assert!(warns(&format!("{reflectance}\nfluorescence = 0.5")));
+    assert!(!warns(&format!("{reflectance}\nfluorescence = 0.2")));
 }

@@ -89,12 +89,15 @@ fn seen(rgb: [f32; 3]) -> [f64; 3] {
 }
 
 #[test]
-fn a_2x2_texture_lands_on_the_right_quadrants() {
+fn each_quadrant_of_a_texture_lands_on_its_quadrant() {
     let dir = scratch("texture-quadrants");
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("quadrants.png");
     let bytes = [[200, 30, 30], [30, 200, 30], [30, 30, 200], [220, 220, 220]];
-    write_png(&file, 2, 2, &bytes);
+    // Each quadrant 2 × 2 texels of a 4 × 4 image (a square of side 2 would not tell
+    // width × height texels from width + height).
+    let texels: Vec<[u8; 3]> = (0..16).map(|t| bytes[(t / 8) * 2 + (t % 4) / 2]).collect();
+    write_png(&file, 4, 4, &texels);
     let text = quad_under_sky(&format!("{{ texture = {:?}, wrap = \"clamp\" }}", s(&file)));
     let mut scene = scene_from(&text);
     let film = TestRender::at(32, 32).spp(64).seed(9).film(&mut scene);

@@ -86,9 +86,15 @@ pub fn corners_match(what: &str, mapped: &Film, constant: &[Film; 4], values: [f
 
 /// Writes a 2 × 2 8-bit PNG of 1 (grey) or 3 (RGB) channels, row 0 at the top.
 pub fn write_png_2x2(path: &std::path::Path, channels: usize, texels: &[u8]) {
-    assert_eq!(texels.len(), 4 * channels);
+    write_png(path, [2, 2], channels, texels);
+}
+
+/// An 8-bit PNG of `size` = [width, height] texels, grey (1 channel) or RGB (3), row 0 at
+/// the top.
+pub fn write_png(path: &std::path::Path, size: [u32; 2], channels: usize, texels: &[u8]) {
+    assert_eq!(texels.len(), (size[0] * size[1]) as usize * channels);
     let file = std::fs::File::create(path).unwrap();
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), 2, 2);
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), size[0], size[1]);
     enc.set_color(match channels {
         1 => png::ColorType::Grayscale,
         _ => png::ColorType::Rgb,
