@@ -178,17 +178,12 @@ impl Spectrum {
     pub fn eval_w<F: Float>(&self, lambda: &Spec<F>, m: F::Mask) -> Spec<F> {
         match self {
             Spectrum::Constant(c) => Spec::splat(*c).masked(m),
-            // One path: its four wavelengths in one SIMD evaluation (the same bits).
-            Spectrum::Tabulated(t) if F::WIDTH == 1 => Spec::from_fn(|i| match m.get(i) {
+            // Path by path, each path's four wavelengths in one SIMD evaluation (the same
+            // bits as across the paths).
+            Spectrum::Tabulated(t) => Spec::from_fn(|i| match m.get(i) {
                 true => t.eval4(lambda.path(i)),
                 false => Vec4::ZERO,
             }),
-            Spectrum::Tabulated(t) => Spec([
-                t.eval_w(lambda[0], m),
-                t.eval_w(lambda[1], m),
-                t.eval_w(lambda[2], m),
-                t.eval_w(lambda[3], m),
-            ]),
             Spectrum::Rgb(r) => r.eval_w(lambda, m),
             Spectrum::Scaled(inner, k) => inner.eval_w(lambda, m).map(|v| F::splat(*k) * v),
             _ => Spec::from_fn(|i| match m.get(i) {
