@@ -640,7 +640,7 @@ impl<F: Float> Lobes<F> {
 
     /// No path on any lobe.
     #[inline(always)]
-    fn none() -> Lobes<F> {
+    pub fn none() -> Lobes<F> {
         let no = F::Mask::splat(false);
         Lobes {
             diffuse: no,
@@ -762,22 +762,24 @@ impl<F: Float> Lobes<F> {
         l
     }
 
-    /// The lobes of the paths in `active`, path i on material `materials[mat[i]]` at its
-    /// wavelengths: each material present is evaluated once, for all its paths at once.
-    /// Paths on coated surfaces get the coat's reflection or the base, as `coat` says (a
-    /// rough coat's reflection is a rough conductor with k = 0, its 1/P in the path's
-    /// throughput). `uv` holds the paths' texture coordinates where a textured material
-    /// needs them.
+    /// Sets the lobes of the paths in `active` into `self`, which holds no path's lobe yet
+    /// ([`Lobes::none`]; filled in place: the struct is large at width 4, and a returned
+    /// one is copied). Path i is on material `materials[mat[i]]` at its wavelengths: each
+    /// material present is evaluated once, for all its paths at once. Paths on coated
+    /// surfaces get the coat's reflection or the base, as `coat` says (a rough coat's
+    /// reflection is a rough conductor with k = 0, its 1/P in the path's throughput).
+    /// `uv` holds the paths' texture coordinates where a textured material needs them.
     #[inline(always)]
-    pub fn at(
+    pub fn fill(
+        &mut self,
         materials: &[Material],
         mat: &F::Arr<u32>,
         active: F::Mask,
         lambda: &Spec<F>,
         coat: &CoatChoice<F>,
         uv: &F::Arr<Vec2>,
-    ) -> Lobes<F> {
-        let mut l = Lobes::none();
+    ) {
+        let l = self;
         let mut left = active;
         while let Some(first) = left.iter().next() {
             let id = mat[first];
@@ -859,7 +861,6 @@ impl<F: Float> Lobes<F> {
             };
             l.set(m, kind, p);
         }
-        l
     }
 
     /// One path's lobe (width 1).

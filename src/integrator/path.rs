@@ -431,7 +431,8 @@ impl<F: Float> Paths<F> {
             return;
         }
         census::record(Part::Surface, s);
-        let lobes = Lobes::at(&scene.materials, &mat, s, &self.lambda, &coat, &uv);
+        let mut lobes = Lobes::none();
+        lobes.fill(&scene.materials, &mat, s, &self.lambda, &coat, &uv);
         if census::ENABLED {
             for kind in lobes.kinds() {
                 census::record(Part::LobeKinds, kind);
