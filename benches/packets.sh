@@ -18,6 +18,12 @@
 # 5. Instructions per pixel sample (callgrind, independent of machine load) for the
 #    Cornell box and the fluorescent volume, packet and single, with this binary and, if
 #    BASE is set, with that commit's (built in a temporary worktree).
+# 6. Where a Cornell-box sample's instructions go, by source file.
+# 7. The estimator's instruction mix by kind (benches/opmix.py: moves, float arithmetic,
+#    masks, branches, ...), Cornell box, single and packet (parts 7 and 8 are not in the
+#    default set: PARTS="7 8").
+# 8. Busy lanes per part of the step (the `census` build, in target/census), Cornell box
+#    and fluorescent volume, packet and single.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/packets}
@@ -130,4 +136,25 @@ objdump -d --no-show-raw-insn "$B" | awk '
     /^[0-9a-f]+ </ { if (inrun && body ~ /rtcIntersect1@/) print body; inrun = 0 }
     /^[0-9a-f]+ <.*Tracer.*3run/ { inrun = 1; body = ""; next }
     inrun { body = body "\n" $0 }' | grep -oE '\b(mulss|mulps)\b' | sort | uniq -c | tee "$out/width1-multiplies.txt"
+fi
+if part 7; then
+echo "== 7. the estimator's instruction mix (callgrind inside Tracer::run, Embree excluded)"
+for rays in single packet; do
+    valgrind --tool=callgrind --dump-instr=yes --compress-pos=no --compress-strings=no \
+        --toggle-collect='*Tracer*run*' --callgrind-out-file="$out/mix-$rays.out" "$B" render \
+        scenes/cornell-box.toml --res 64x64 --spp 16 --threads 1 --rays "$rays" \
+        -o "$out/mix.exr" >/dev/null 2>&1
+    echo "-- $rays"
+    python3 benches/opmix.py "$B" "$out/mix-$rays.out" $((64 * 64 * 16))
+done | tee "$out/instruction-mix.txt"
+fi
+if part 8; then
+echo "== 8. busy lanes per part of the step (cargo feature census)"
+CARGO_TARGET_DIR=target/census cargo build --release -q --features census
+for s in cornell-box fluorescent-volume-440nm; do
+    for rays in packet single; do
+        target/census/release/stokes render "scenes/$s.toml" --res 64x64 --spp 16 --threads 1 \
+            --rays "$rays" -o "$out/census.exr" 2>&1 | sed -n '/^census/,$p'
+    done
+done | tee "$out/census.txt"
 fi
