@@ -1183,6 +1183,43 @@ mod tests {
     }
 
     #[test]
+    fn a_refraction_about_a_shading_normal_must_cross_the_surface() {
+        // ng = +z, the shading normal leaning 60° towards +x; wo all round, from outside
+        // (index 1.5 inside) and from inside. Seen from some directions, refracting about
+        // ns sends wi back to wo's side of the geometric surface: the sample is refused
+        // there (the path ends), never continued on the wrong side.
+        let ng = V3::<f32>::from(Vec3::Z);
+        let lean = 60f32.to_radians();
+        let ns = V3::<f32>::from(Vec3::new(lean.sin(), 0.0, lean.cos()));
+        let glass = Lobes::<f32>::one(Lobe::Dielectric(Vec4::splat(1.5), 1.0));
+        let (mut wrong_side, mut crossed) = (0, 0);
+        for k in -179..180 {
+            let a = (k as f32).to_radians();
+            let wo = V3::<f32>::from(Vec3::new(a.sin(), 0.0, a.cos()));
+            let nrm = Normals::new(ng, ns, true, wo);
+            if !nrm.shaded {
+                continue;
+            }
+            let (ns_wo, eta, fr) = dielectric_at(Spec::splat(1.5), 1.0, &nrm, wo);
+            let (wi, ok) = refract(wo, ns_wo, eta.hero());
+            if !ok || fr.hero() > 0.99 {
+                continue;
+            }
+            let s = glass.sample(&nrm, wo, 0.995, [0.5, 0.5]);
+            if wi.z * wo.z > 0.0 {
+                wrong_side += 1;
+                let wi = Vec3::from(wi);
+                assert!(!s.valid, "wo at {k}°: wi {wi:?} kept on wo's side");
+            } else {
+                crossed += 1;
+                let ok = s.valid && s.wi.z * wo.z < 0.0;
+                assert!(ok, "wo at {k}°: the refraction was lost");
+            }
+        }
+        assert!(wrong_side > 5 && crossed > 5, "{wrong_side} {crossed}");
+    }
+
+    #[test]
     fn refraction_obeys_snell() {
         let n = Vec3::Z;
         let wo = Vec3::new(0.6, 0.0, 0.8);
