@@ -505,6 +505,57 @@ pub fn diffuse_external_albedo(eta: f32, alpha: f32) -> f64 {
 mod tests {
     use super::*;
 
+    /// A smooth conductor under a smooth absorbing coat: the coat's own reflection R plus
+    /// the mirror weight times the exit factor is the incoherent sum of the reflections
+    /// between coat and base, R + (1 − R)²·F_b·a²/(1 − R·F_b·a²), with a = e^(−τ/cos θ')
+    /// for θ' from Snell's law (one crossing of the coat is one path τ/cos θ' long).
+    #[test]
+    fn a_coated_mirror_sums_the_reflections_between_coat_and_base() {
+        let (e, tau, eta_b, k_b) = (1.5f32, 0.4f32, 0.2f32, 3.0f32);
+        let mirror = CoatedConductor::<f32> {
+            coat_eta: Spec::splat(e),
+            tau: Spec::splat(tau),
+            coat_alpha: 0.0,
+            eta: Spec::splat(eta_b),
+            k: Spec::splat(k_b),
+            ggx: Ggx::new(0.0, 0.0),
+        };
+        for cos_o in [1.0f32, 0.8, 0.5, 0.2] {
+            let r = f64::from(fresnel_dielectric(cos_o, e));
+            let cos_t = (1.0 - (1.0 - cos_o * cos_o) / (e * e)).sqrt();
+            let fb = f64::from(fresnel_conductor(cos_t, eta_b / e, k_b / e));
+            let a2 = (-2.0 * f64::from(tau / cos_t)).exp();
+            let want = r + (1.0 - r).powi(2) * fb * a2 / (1.0 - r * fb * a2);
+            let exit = crossing(cos_o, &Spec::splat(e), &Spec::splat(tau), 0.0)[0] / (e * e);
+            let got = r + f64::from(mirror.mirror(cos_o)[0] * exit);
+            assert!((got - want).abs() < 1e-5, "cos θo {cos_o}: {got} vs {want}");
+        }
+    }
+
+    /// A rough absorbing coat's internal reflectance against a direct quadrature of its
+    /// definition: the reciprocal clear r, times the share of the single-scattering
+    /// albedo 2∫E(μ)·μ dμ that survives the round trip e^(−2τ/μ).
+    #[test]
+    fn rough_internal_reflectance_absorbs_along_each_direction() {
+        for (eta, alpha, tau) in [(1.5f32, 0.3f32, 0.3f32), (1.33, 0.1, 0.6)] {
+            let n = 1024;
+            let (mut absorbed, mut clear) = (0.0f64, 0.0f64);
+            for i in 0..n {
+                let mu = (i as f64 + 0.5) / n as f64;
+                let e = f64::from(albedo::reflection_albedo(mu as f32, 1.0 / eta, alpha));
+                absorbed += e * (-2.0 * f64::from(tau) / mu).exp() * mu;
+                clear += e * mu;
+            }
+            let r_clear = 1.0 - (1.0 - diffuse_external_albedo(eta, alpha)) / f64::from(eta * eta);
+            let want = r_clear * absorbed / clear;
+            let got = f64::from(internal_reflectance(eta, tau, alpha));
+            assert!(
+                (got - want).abs() < 2e-3,
+                "η {eta} α {alpha} τ {tau}: {got} vs {want}"
+            );
+        }
+    }
+
     /// 1 − r_internal = (1 − r_external)/η² for a clear coat: what enters diffusely leaves.
     #[test]
     fn internal_and_external_diffuse_reflectance_balance() {
