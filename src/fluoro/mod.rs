@@ -777,6 +777,22 @@ mod tests {
             .unwrap(),
         );
         assert!(dye(&hair, &boxed(400.0, 502.0), 0.9).is_err());
+        // The share weighs each cell by its width (2 nm here): one cell [400, 402) at
+        // absorption 0.25 below an emission in [402, 404), against 214 cells at 0.5 up to
+        // 830 nm, is 0.25·2 / (0.25·2 + 0.5·2·214) = 2.3·10⁻³ and passes; at 0.05 it is
+        // 4.7·10⁻⁴ and does not.
+        let step = |first: f32| {
+            Spectrum::Tabulated(
+                Tabulated::new(
+                    vec![399.9, 400.0, 402.0, 402.1, 830.0],
+                    vec![0.0, first, first, 0.5, 0.5],
+                )
+                .unwrap(),
+            )
+        };
+        assert!(dye(&step(0.25), &boxed(402.2, 403.8), 0.9).is_ok());
+        let err = dye(&step(0.05), &boxed(402.2, 403.8), 0.9).unwrap_err();
+        assert!(err.to_string().contains("only 4.7e-4"), "{err}");
     }
 
     /// A 3-cell matrix whose grid sticks out of the range on both sides.
