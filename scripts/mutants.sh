@@ -40,7 +40,7 @@ bsdf     | src/bsdf/*.rs           | --lib --test bsdf_sampling --test microface
 medium   | src/medium/*.rs         | --lib --test medium_sampling --test media_renders |
 spectrum | src/spectrum/*.rs       | --lib --test spectrum --test colorchecker --test upsample --test wavelengths | -- --skip the_binary_caches_the_table
 path     | src/integrator/path.rs, src/integrator/shadow.rs, src/integrator/mod.rs | --lib --test render_analytic --test media_renders --test packet --test fluorescent_surfaces --test environment --test lights | $SLOW --skip stokes_info_lists
-fluoro   | src/fluoro/*.rs         | --lib --test reradiation --test fluorescent_surfaces --test fluorescence_map | $SLOW --skip stokes_info_lists
+fluoro   | src/fluoro/*.rs         | --lib --test reradiation --test fluorescent_surfaces --test fluorescence_map --test bispectral_exr --test bfc | $SLOW --skip stokes_info_lists --skip convert
 "
 EXCLUDE=(--exclude 'src/*/desc.rs' --exclude-re 'from_desc|checked_power')
 

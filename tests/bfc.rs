@@ -214,6 +214,18 @@ fn a_bfc_file_with_a_bad_row_is_one_line_naming_file_and_line() {
             text.replacen("\t0.", "\tx.", 1),
             "expected a number in column",
         ),
+        // The sampling line (380 780 10 49 300 10): a zero excitation step, and a column
+        // count that is not whole, each with the other numbers as measured.
+        (
+            "zero-step.BFC",
+            text.replacen("\t49\t300\t10", "\t49\t300\t0", 1),
+            "positive steps",
+        ),
+        (
+            "half-column.BFC",
+            text.replacen("\t49\t300\t10", "\t48.5\t300\t10", 1),
+            "positive steps",
+        ),
     ];
     for (file, body, want) in cases {
         let path = scratch.join(file);

@@ -726,6 +726,41 @@ mod tests {
         assert_traits::<ImportReport>();
     }
 
+    /// A BFC import is clean only when nothing was clamped, dropped or left unmeasured
+    /// (the measured files all clamp some entries, so they cannot tell the three apart).
+    #[test]
+    fn a_bfc_report_is_clean_only_when_nothing_was_left_out() {
+        let clean = BfcReport {
+            sample: None,
+            clamped: ImportReport::default(),
+            excitation_dropped: None,
+            emission_unmeasured: None,
+            emission_dropped: None,
+            held_above: None,
+        };
+        assert!(MatrixReport::Bfc(clean.clone()).is_clean());
+        let negative = ImportReport {
+            clamped_negative: 1,
+            ..ImportReport::default()
+        };
+        for r in [
+            BfcReport {
+                clamped: negative,
+                ..clean.clone()
+            },
+            BfcReport {
+                excitation_dropped: Some((300.0, 350.0, 6)),
+                ..clean.clone()
+            },
+            BfcReport {
+                emission_unmeasured: Some((360.0, 370.0)),
+                ..clean.clone()
+            },
+        ] {
+            assert!(!MatrixReport::Bfc(r.clone()).is_clean(), "{r:?}");
+        }
+    }
+
     /// A dye must be able to re-emit: some absorption, and at least
     /// [`MIN_REEMITTABLE`] of it below some emission.
     #[test]
