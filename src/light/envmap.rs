@@ -102,9 +102,9 @@ impl EnvMap {
         })
     }
 
-    /// Bytes its texels and density take.
+    /// Bytes its texels and density take (`stokes info` reports them).
     pub fn memory(&self) -> usize {
-        self.texels.len() * (std::mem::size_of::<RgbSpectrum>() + 12)
+        self.texels.len() * std::mem::size_of::<RgbSpectrum>() + self.density.memory()
     }
 
     /// The direction of image point (x, y) ∈ [0, 1)².
@@ -158,5 +158,22 @@ impl EnvMap {
     #[inline]
     pub fn radiance(&self, k: u32, lambda: Vec4) -> Vec4 {
         self.texels[k as usize].eval4(lambda)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What `stokes info` reports for a map: per texel its spectrum, one cumulative
+    /// weight (f64) and one density (f32); per row one cumulative weight (f64).
+    #[test]
+    fn a_map_reports_the_bytes_it_holds() {
+        for (w, h) in [(4, 2), (16, 8)] {
+            let rgb = vec![[0.5, 0.25, 1.0]; w * h];
+            let map = EnvMap::from_rgb(w, h, &rgb, 1.0).unwrap();
+            let texel = std::mem::size_of::<RgbSpectrum>() + 8 + 4;
+            assert_eq!(map.memory(), w * h * texel + h * 8, "{w}x{h}");
+        }
     }
 }

@@ -19,6 +19,12 @@ pub struct Piecewise2d {
 }
 
 impl Piecewise2d {
+    /// Bytes its tables take: two cumulative tables in f64 and the density in f32.
+    pub fn memory(&self) -> usize {
+        (self.conditional.len() + self.marginal.len()) * std::mem::size_of::<f64>()
+            + self.density.len() * std::mem::size_of::<f32>()
+    }
+
     /// The density of the `width` × `height` grid of `weights` (row by row, all finite and
     /// ≥ 0); `None` if their sum is zero or not finite.
     pub fn new(width: usize, height: usize, weights: &[f64]) -> Option<Piecewise2d> {
