@@ -32,7 +32,7 @@ pub use envmap::EnvMap;
 
 use crate::error::{Detail, Key, KeyError};
 use crate::scene::Context;
-use crate::simd::{Float, Lanes, Mask, V3};
+use crate::simd::{columns, Float, Lanes, Mask, V3};
 use crate::spectrum::{self, Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
 use serde::Deserialize;
@@ -276,6 +276,8 @@ pub struct Lights {
     cdf: Vec<f32>,
     /// Selection probability of each, in the same order.
     pmf: Vec<f32>,
+    /// Each triangle as next-event estimation reads it ([`NeeRows`]).
+    nee_rows: Vec<NeeRows>,
     /// For each geometry id, the index of its first light triangle.
     first_triangle: Vec<Option<u32>>,
     /// The scene's bounding sphere: centre and radius (directional and environment light
@@ -292,11 +294,22 @@ impl Default for Lights {
             environment: None,
             cdf: Vec::new(),
             pmf: Vec::new(),
+            nee_rows: Vec::new(),
             first_triangle: Vec::new(),
             bound: (Vec3::ZERO, 1.0),
         }
     }
 }
+
+/// A light triangle as next-event estimation reads it, four rows of four so that the
+/// triangles of W paths gather as whole vectors: (p0, pdf_area), (e1, 1 if two-sided
+/// else 0), (e2, emitter index), (n, 1); [`NO_TRIANGLE`] for one that cannot be sampled
+/// (no power or no area).
+type NeeRows = [Vec4; 4];
+
+/// The rows of a path that samples no triangle: what [`Lights::sample_triangles`] leaves
+/// in its lane.
+const NO_TRIANGLE: NeeRows = [Vec4::ZERO, Vec4::ZERO, Vec4::ZERO, Vec4::Z];
 
 /// One entry of the selection table.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -420,6 +433,20 @@ impl Lights {
         if let Some(last) = self.cdf.last_mut() {
             *last = 1.0;
         }
+        self.nee_rows = (self.triangles.iter().enumerate())
+            .map(|(k, t)| {
+                if !(self.pmf[k] > 0.0 && t.area > 0.0) {
+                    return NO_TRIANGLE;
+                }
+                let two_sided = self.emitters[t.emitter as usize].two_sided;
+                [
+                    t.p0.extend(self.pmf[k] / t.area),
+                    t.e1.extend(f32::from(u8::from(two_sided))),
+                    t.e2.extend(t.emitter as f32),
+                    t.n.extend(1.0),
+                ]
+            })
+            .collect();
     }
 
     /// Whether the scene has any light.
@@ -471,15 +498,17 @@ impl Lights {
         if self.pmf.is_empty() {
             return s;
         }
-        let pick: F::Arr<usize> = Lanes::from_fn(|i| self.pick(u[0].get(i)));
-        // Per path: the triangle (by power), if it can be sampled.
-        let tri: F::Arr<Option<usize>> = Lanes::from_fn(|i| {
-            let k = pick[i];
-            let t = self.triangles.get(k)?;
-            (active.get(i) && self.pmf[k] > 0.0 && t.area > 0.0).then_some(k)
-        });
+        let mut pick: F::Arr<usize> = Lanes::splat(0);
+        for i in active.iter() {
+            pick[i] = self.pick(u[0].get(i));
+        }
         if !self.triangles.is_empty() {
-            self.sample_triangles(&mut s, &tri, p, u);
+            // Per path: the triangle (by power), if it picked one.
+            let rows: F::Arr<NeeRows> = Lanes::from_fn(|i| match active.get(i) {
+                true => self.nee_rows.get(pick[i]).copied().unwrap_or(NO_TRIANGLE),
+                false => NO_TRIANGLE,
+            });
+            self.sample_triangles(&mut s, &rows, p, u);
         }
         if self.triangles.len() < self.pmf.len() {
             for i in active.iter() {
@@ -500,27 +529,30 @@ impl Lights {
         s
     }
 
-    /// The triangle samples of [`Lights::sample_towards_w`], for the paths whose `tri`
-    /// is set.
+    /// The triangle samples of [`Lights::sample_towards_w`], for the paths whose `rows`
+    /// hold a triangle that can be sampled.
     #[inline(always)]
     fn sample_triangles<F: Float>(
         &self,
         s: &mut LightSamples<F>,
-        tri: &F::Arr<Option<usize>>,
+        rows: &F::Arr<NeeRows>,
         p: V3<F>,
         u: [F; 3],
     ) {
-        let get = |i: usize| tri[i].map(|k| &self.triangles[k]);
-        let p0 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.p0));
-        let e1 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.e1));
-        let e2 = V3::from_fn(|i| get(i).map_or(Vec3::ZERO, |t| t.e2));
-        s.n = V3::from_fn(|i| get(i).map_or(Vec3::Z, |t| t.n));
-        s.emitter = Lanes::from_fn(|i| get(i).map_or(0, |t| t.emitter));
-        s.pdf_area = F::from_fn(|i| tri[i].map_or(0.0, |k| self.pmf[k] / self.triangles[k].area));
-        let chosen = F::Mask::from_fn(|i| tri[i].is_some());
-        let two_sided = F::Mask::from_fn(|i| {
-            get(i).is_some_and(|t| self.emitters[t.emitter as usize].two_sided)
-        });
+        let column = |k: usize| columns::<F>(&Lanes::from_fn(|i| rows[i][k]));
+        let ([p0x, p0y, p0z, pdf_area], [e1x, e1y, e1z, two_sided]) = (column(0), column(1));
+        let ([e2x, e2y, e2z, emitter], [nx, ny, nz, samplable]) = (column(2), column(3));
+        let (p0, e1, e2) = (
+            V3::new(p0x, p0y, p0z),
+            V3::new(e1x, e1y, e1z),
+            V3::new(e2x, e2y, e2z),
+        );
+        let half = F::splat(0.5);
+        let chosen = samplable.gt(half);
+        let two_sided = two_sided.gt(half);
+        s.n = V3::new(nx, ny, nz);
+        s.emitter = Lanes::from_fn(|i| emitter.get(i) as u32);
+        s.pdf_area = pdf_area;
         // Uniform on the triangle (square-root parametrisation).
         let su = u[1].sqrt();
         let (b1, b2) = (F::splat(1.0) - su, u[2] * su);

@@ -32,6 +32,18 @@ pub use paths::{F4, F8, M4, M8};
 pub use spec::Spec;
 pub use vec3::V3;
 
+/// The four columns of W rows of four values: lane i of column k is `rows[i][k]`.
+/// Gathers per-path records (a light triangle, a spectral value) as whole vectors.
+#[inline(always)]
+pub fn columns<F: Float>(rows: &F::Arr<glam::Vec4>) -> [F; 4] {
+    [
+        F::from_fn(|i| rows[i].x),
+        F::from_fn(|i| rows[i].y),
+        F::from_fn(|i| rows[i].z),
+        F::from_fn(|i| rows[i].w),
+    ]
+}
+
 /// `f` applied to each of the four HWSS wavelengths' values: `Vec4::to_array().map(f)`
 /// written out, since the compiler leaves that closure as a call per element in hot code.
 #[inline(always)]
