@@ -115,6 +115,18 @@ fn invert(cdf: &[f64], u: f64) -> (usize, f64) {
 mod tests {
     use super::*;
 
+    /// A point that would round up to 1 in f32 stays inside [0, 1)² (the environment map
+    /// turns x = 1 into the seam and y = 1 into the pole).
+    #[test]
+    fn samples_stay_below_one() {
+        // All the weight in the last column: u just below 1 lands 2⁻²⁶ below x = 1.
+        let d = Piecewise2d::new(4, 1, &[0.0, 0.0, 0.0, 1.0]).unwrap();
+        let below_one = f32::from_bits(1.0f32.to_bits() - 1);
+        let ([x, y], cell, _) = d.sample([below_one, below_one]);
+        assert_eq!(cell, [3, 0]);
+        assert_eq!((x, y), (below_one, below_one));
+    }
+
     #[test]
     fn cells_are_chosen_in_proportion_to_their_weights() {
         let d = Piecewise2d::new(2, 2, &[1.0, 3.0, 0.0, 4.0]).unwrap();
