@@ -36,7 +36,7 @@ SLOW="-- --skip mono_constant_and_independent_agree"
 GROUPS_TABLE="
 light    | src/light.rs, src/light/*.rs | --lib --test light_sampling --test render_analytic --test lights --test environment | -- --skip stokes_info_lists_the_lights_by_kind
 texture  | src/texture/*.rs, src/fluoro/map.rs | --lib --test textures --test fluorescence_map --test roughness_map --test coated_texture | -- --skip stokes_info_lists
-bsdf     | src/bsdf/*.rs           | --lib --test bsdf_sampling --test microfacet_sampling --test coated_sampling --test materials_render --test shading_normals --test roughness_map --test packet | -- --skip stokes_info_lists
+bsdf     | src/bsdf/*.rs           | --lib --test bsdf_sampling --test microfacet_sampling --test coated_sampling --test materials_render --test shading_normals --test roughness_map --test textures --test packet | -- --skip stokes_info_lists
 medium   | src/medium/*.rs         | --lib --test medium_sampling --test media_renders |
 spectrum | src/spectrum/*.rs       | --lib --test spectrum --test colorchecker --test upsample --test wavelengths | -- --skip the_binary_caches_the_table
 path     | src/integrator/path.rs, src/integrator/shadow.rs, src/integrator/mod.rs | --lib --test render_analytic --test media_renders --test packet --test fluorescent_surfaces --test environment --test lights | $SLOW --skip stokes_info_lists
