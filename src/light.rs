@@ -303,8 +303,9 @@ impl Default for Lights {
 
 /// A light triangle as next-event estimation reads it, four rows of four so that the
 /// triangles of W paths gather as whole vectors: (p0, pdf_area), (e1, 1 if two-sided
-/// else 0), (e2, emitter index), (n, 1); [`NO_TRIANGLE`] for one that cannot be sampled
-/// (no power or no area).
+/// else 0), (e2, the emitter index's bits: only moved, never computed with, so exact for
+/// every index), (n, 1); [`NO_TRIANGLE`] for one that cannot be sampled (no power or no
+/// area).
 type NeeRows = [Vec4; 4];
 
 /// The rows of a path that samples no triangle: what [`Lights::sample_triangles`] leaves
@@ -442,7 +443,7 @@ impl Lights {
                 [
                     t.p0.extend(self.pmf[k] / t.area),
                     t.e1.extend(f32::from(u8::from(two_sided))),
-                    t.e2.extend(t.emitter as f32),
+                    t.e2.extend(f32::from_bits(t.emitter)),
                     t.n.extend(1.0),
                 ]
             })
@@ -551,7 +552,7 @@ impl Lights {
         let chosen = samplable.gt(half);
         let two_sided = two_sided.gt(half);
         s.n = V3::new(nx, ny, nz);
-        s.emitter = Lanes::from_fn(|i| emitter.get(i) as u32);
+        s.emitter = Lanes::from_fn(|i| emitter.get(i).to_bits());
         s.pdf_area = pdf_area;
         // Uniform on the triangle (square-root parametrisation).
         let su = u[1].sqrt();
