@@ -4,7 +4,7 @@
 # mutants.out/<group>/mutants.out/ (outcomes.json, caught.txt, missed.txt, timeout.txt,
 # unviable.txt). docs/mutants.md holds the table and the reason for every survivor.
 #
-#   scripts/mutants.sh                 # every group (about a day on 2 cores: docs/mutants.md)
+#   scripts/mutants.sh                 # every group (about 50 hours on 2 cores: docs/mutants.md)
 #   scripts/mutants.sh fluoro medium   # just these
 #   MUTANTS_JOBS=1 scripts/mutants.sh  # one mutant at a time (default 2)
 #   MUTANTS_SHARD=0/4 scripts/mutants.sh   # every 4th mutant of each group (cargo-mutants
