@@ -20,7 +20,8 @@
 #    BASE is set, with that commit's (built in a temporary worktree).
 # 6. Where a Cornell-box sample's instructions go, by source file.
 # 7. The estimator's instruction mix by kind (benches/opmix.py: moves, float arithmetic,
-#    masks, branches, ...), Cornell box, single and packet (parts 7 and 8 are not in the
+#    masks, branches, ...) and by the source file its inlined code comes from
+#    (benches/bysource.py), Cornell box, single and packet (parts 7 and 8 are not in the
 #    default set: PARTS="7 8").
 # 8. Busy lanes per part of the step (the `census` build, in target/census), Cornell box
 #    and fluorescent volume, packet and single.
@@ -146,6 +147,8 @@ for rays in single packet; do
         -o "$out/mix.exr" >/dev/null 2>&1
     echo "-- $rays"
     python3 benches/opmix.py "$B" "$out/mix-$rays.out" $((64 * 64 * 16))
+    echo "-- $rays, by source file through inlining"
+    python3 benches/bysource.py "$B" "$out/mix-$rays.out" $((64 * 64 * 16)) --by file 12
 done | tee "$out/instruction-mix.txt"
 fi
 if part 8; then
