@@ -3,13 +3,16 @@
 through inlining: each executed instruction of a callgrind run (recorded as for
 `benches/opmix.py`) is charged to a source location found with `addr2line -i`.
 
-    python3 benches/bysource.py BIN CGOUT SAMPLES [--by file|line|step] [N]
+    python3 benches/bysource.py BIN CGOUT SAMPLES [--by file|line|step] [--event E] [N]
 
 --by file  the innermost file of this repository under src/ outside src/simd/ (a light
            sample's arithmetic counts for light.rs, not for the SIMD types it uses); the
            README's table "Where width 4 still costs more than width 1"
 --by line  the same, file and line
 --by step  the line of src/integrator/ it was inlined into (which part of the step)
+
+--event E  count another of the run's events instead of instructions (Ir), e.g. Bcm,
+           mispredicted conditional branches, from a run with `--branch-sim=yes`
 
 SAMPLES is the run's pixel samples (64 × 64 × 16 = 65536 for the README's runs). The
 binary must carry line tables (the release profile's `debug = 1`).
@@ -18,10 +21,33 @@ import collections
 import re
 import subprocess
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import opmix  # noqa: E402
+
+
+def costs(binary, out, event):
+    """Self cost of `event` per instruction address in `binary` (as `opmix.costs`)."""
+    name = binary.rsplit("/", 1)[-1]
+    per = collections.Counter()
+    col, in_binary, after_call = None, True, False
+    with open(out) as f:
+        for line in f:
+            if line.startswith("events:"):
+                names = line.split()[1:]
+                if event not in names:
+                    sys.exit(f"{out} has no event {event} (it has {' '.join(names)})")
+                col = 2 + names.index(event)
+            elif line.startswith("ob="):
+                in_binary = line.rstrip().endswith(name)
+            elif line.startswith("calls="):
+                after_call = True
+            elif line.startswith("0x"):
+                if after_call:
+                    after_call = False
+                    continue
+                p = line.split()
+                if in_binary and col is not None and len(p) > col:
+                    per[int(p[0], 16)] += int(p[col])
+    return per
 
 
 def inline_chains(binary, addrs):
@@ -71,7 +97,8 @@ def main():
     binary, out, samples = args[0], args[1], float(args[2])
     by = args[args.index("--by") + 1] if "--by" in args else "file"
     top = next((int(a) for a in args[3:] if a.isdigit()), 25)
-    per = opmix.costs(binary, out)
+    event = args[args.index("--event") + 1] if "--event" in args else "Ir"
+    per = costs(binary, out, event)
     if not per:
         sys.exit(f"{out} holds no instructions of {binary}: record it with this binary")
     chains = inline_chains(binary, sorted(per))
@@ -79,9 +106,9 @@ def main():
     totals = collections.Counter()
     for addr, cost in per.items():
         totals[key(chains.get(addr, []), by, root)] += cost
-    print(f"total {sum(totals.values()) / samples:.0f} instructions per sample")
+    print(f"total {sum(totals.values()) / samples:.1f} {event} per sample")
     for k, cost in totals.most_common(top):
-        print(f"{cost / samples:8.0f}  {k}")
+        print(f"{cost / samples:8.1f}  {k}")
 
 
 if __name__ == "__main__":
