@@ -9,7 +9,7 @@ use stokes::integrator::render::Film;
 use stokes::integrator::{radiance, PathOptions, PathStats};
 use stokes::medium::Tracking;
 use stokes::method::{Method, Shifting, Spectral};
-use stokes::sampler::{LazyStream, Pcg32};
+use stokes::sampler::{LazyStream, Streams};
 use stokes::scene::Scene;
 
 fn render_with(
@@ -271,7 +271,7 @@ fn estimate(scene: &Scene, lambda_o: f32, tracking: Tracking, n: u64) -> (f64, f
     let (mut s, mut q) = (0.0f64, 0.0f64);
     let mut stats = PathStats::default();
     for i in 0..n {
-        let rng = Pcg32::for_sample(17, lambda_o as u64, i);
+        let rng = Streams::for_sample(17, lambda_o as u64, i);
         let shift = LazyStream::new(17, lambda_o as u64, i);
         let v = radiance(
             scene,

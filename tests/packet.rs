@@ -19,7 +19,7 @@ use stokes::integrator::trace::{SampleId, Tracer, Width};
 use stokes::integrator::{radiance, PathOptions, PathStats};
 use stokes::medium::tracking::Tracking;
 use stokes::method::{Axis, Dispersion, Layout, Method, Rays};
-use stokes::sampler::{LazyStream, Pcg32};
+use stokes::sampler::{LazyStream, Streams};
 use stokes::scene::Scene;
 use stokes::simd::{F4, F8};
 use stokes::spectrum::{SampledWavelengths, Wavelengths};
@@ -176,10 +176,10 @@ const SEED: u64 = 5;
 
 /// The inputs of pixel sample `i` (sample index 0 of pixel i) of the scene's camera, as
 /// the tracer makes them: ray, wavelengths and streams.
-fn sample_inputs(scene: &Scene, i: u64) -> (stokes::accel::Ray, Vec4, Pcg32, LazyStream) {
+fn sample_inputs(scene: &Scene, i: u64) -> (stokes::accel::Ray, Vec4, Streams<f32>, LazyStream) {
     let w = scene.camera.width as u64;
     let (x, y) = (i % w, i / w);
-    let mut rng = Pcg32::for_sample(SEED, i, 0);
+    let mut rng = Streams::for_sample(SEED, i, 0);
     let [jx, jy] = rng.next_2d();
     let ray = scene.camera.ray(x as f32 + jx, y as f32 + jy);
     let lambda = SampledWavelengths::hwss_with(Wavelengths::default(), rng.next_f32()).lambda;

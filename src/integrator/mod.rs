@@ -32,7 +32,7 @@ use crate::fluoro::map::Printed;
 use crate::fluoro::Reradiation;
 use crate::medium::Homogeneous;
 use crate::method::{Resolved, Shifting};
-use crate::sampler::{LazyStream, Pcg32};
+use crate::sampler::{LazyStream, Pcg32, Streams};
 use crate::scene::Scene;
 use crate::simd::{Float, Spec, V3};
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
@@ -137,7 +137,7 @@ pub fn radiance(
     camera_ray: Ray,
     lambda: Vec4,
     opts: &PathOptions,
-    rng: Pcg32,
+    rng: Streams<f32>,
     shift_rng: LazyStream,
     stats: &mut PathStats,
 ) -> Vec4 {

@@ -25,7 +25,7 @@ use crate::light::{Lights, NO_TEXEL};
 use crate::medium::phase::Hg;
 use crate::medium::tracking;
 use crate::method::{Dispersion, Shifting, Spectral};
-use crate::sampler::{mix64, LazyStream, Pcg32};
+use crate::sampler::{mix64, LazyStream, Streams};
 use crate::scene::Scene;
 use crate::simd::{map4, Float, Lanes, Mask, Spec, V3};
 use glam::{Vec2, Vec3, Vec4};
@@ -87,18 +87,12 @@ pub struct Paths<F: Float> {
     /// events.
     le_emitter: F::Arr<u32>,
     le_value: Spec<F>,
-    rng: F::Arr<Pcg32>,
+    rng: Streams<F>,
     shift_rng: F::Arr<LazyStream>,
     /// [`ALL_LANES`], or the camera lane a split-off path's lane 0 stands for.
     pub out_lane: F::Arr<u8>,
     /// The driver's index of the pixel sample each path belongs to.
     pub slot: F::Arr<u32>,
-}
-
-/// Uniforms for the paths in `m`, drawn path by path (0 elsewhere).
-#[inline(always)]
-fn draw<F: Float>(rng: &mut F::Arr<Pcg32>, m: F::Mask) -> F {
-    F::from_fn(|i| if m.get(i) { rng[i].next_f32() } else { 0.0 })
 }
 
 /// The paths in `m`'s count of set lanes.
@@ -133,7 +127,7 @@ impl<F: Float> Paths<F> {
             crossings: Lanes::splat(0),
             le_emitter: Lanes::splat(NO_EMITTER),
             le_value: zero,
-            rng: Lanes::splat(Pcg32::new(0, 0)),
+            rng: Streams::idle(),
             shift_rng: Lanes::splat(LazyStream::new(0, 0, 0)),
             out_lane: Lanes::splat(ALL_LANES),
             slot: Lanes::splat(0),
@@ -158,7 +152,7 @@ impl<F: Float> Paths<F> {
         org: V3<F>,
         dirs: V3<F>,
         lambda: Spec<F>,
-        rng: &F::Arr<Pcg32>,
+        rng: &Streams<F>,
         shift_rng: &F::Arr<LazyStream>,
         slot: &F::Arr<u32>,
     ) {
@@ -184,7 +178,7 @@ impl<F: Float> Paths<F> {
             self.medium[i] = medium;
             self.crossings[i] = 0;
             self.le_emitter[i] = NO_EMITTER;
-            self.rng[i] = rng[i];
+            self.rng.set_lane(i, rng.lane(i));
             self.shift_rng[i] = shift_rng[i];
             self.out_lane[i] = ALL_LANES;
             self.slot[i] = slot[i];
@@ -226,7 +220,7 @@ impl<F: Float> Paths<F> {
             crossings: [self.crossings[i]],
             le_emitter: [self.le_emitter[i]],
             le_value: self.le_value.path(i).into(),
-            rng: [self.rng[i]],
+            rng: self.rng.lane(i),
             shift_rng: [self.shift_rng[i]],
             out_lane: [self.out_lane[i]],
             slot: [self.slot[i]],
@@ -254,7 +248,7 @@ impl<F: Float> Paths<F> {
         self.crossings[i] = p.crossings[0];
         self.le_emitter[i] = p.le_emitter[0];
         self.le_value.set_path(i, p.le_value.into());
-        self.rng[i] = p.rng[0];
+        self.rng.set_lane(i, p.rng);
         self.shift_rng[i] = p.shift_rng[0];
         self.out_lane[i] = p.out_lane[0];
         self.slot[i] = p.slot[0];
@@ -313,7 +307,7 @@ impl<F: Float> Paths<F> {
         }
         census::record(Part::Roulette, deep);
         let q = self.beta.max_wavelength().min(F::splat(0.95));
-        let u = draw::<F>(&mut self.rng, deep);
+        let u = self.rng.draw(deep);
         let die = deep & u.ge(q);
         self.kill(die);
         let live = deep & !die;
@@ -467,7 +461,7 @@ impl<F: Float> Paths<F> {
         if coated.none() {
             return CoatChoice::none();
         }
-        let u = draw::<F>(&mut self.rng, coated);
+        let u = self.rng.draw(coated);
         let cos_o = nrm.ns.dot(wo).abs();
         let mut mirror = F::Mask::splat(false);
         let mut p_mirror = F::splat(1.0);
@@ -653,11 +647,7 @@ impl<F: Float> Paths<F> {
         shadow: &mut Shadows<F>,
     ) {
         let ng = nrm.ng;
-        let u = [
-            draw::<F>(&mut self.rng, m),
-            draw::<F>(&mut self.rng, m),
-            draw::<F>(&mut self.rng, m),
-        ];
+        let u = self.rng.draws::<3>(m);
         let m = m & !lobes.is_specular();
         if m.none() {
             return;
@@ -747,8 +737,8 @@ impl<F: Float> Paths<F> {
         census::record(Part::Scatter, m);
         let zero = F::splat(0.0);
         let ng = nrm.ng;
-        let uc = draw::<F>(&mut self.rng, m);
-        let u = [draw::<F>(&mut self.rng, m), draw::<F>(&mut self.rng, m)];
+        let [uc, u0, u1] = self.rng.draws::<3>(m);
+        let u = [u0, u1];
         let bs = lobes.sample(nrm, wo, uc, u);
         let p0 = bs.pdf.hero();
         let mut s = m & bs.valid & p0.gt(zero);
@@ -836,7 +826,7 @@ impl<F: Float> Paths<F> {
             false => 0.0,
         });
         let d = hit.t * self.dir.length();
-        let u = draw::<F>(&mut self.rng, m);
+        let u = self.rng.draw(m);
         let (collide, t) = tracking::sample_distance(tracking, st.hero(), ss.hero(), d, u);
         let c = m & collide;
         let reach = m & !collide;
@@ -900,11 +890,9 @@ impl<F: Float> Paths<F> {
         let dir = self.dir.normalize();
         let p = self.org + dir * t;
         let wo = -dir;
-        let u = [
-            draw::<F>(&mut self.rng, m),
-            draw::<F>(&mut self.rng, m),
-            draw::<F>(&mut self.rng, m),
-        ];
+        // Three for the light sample, two for the phase sample.
+        let [u0, u1, u2, u3, u4] = self.rng.draws::<5>(m);
+        let u = [u0, u1, u2];
         let f_pdf = |wi: &V3<F>| {
             let f = Spec::broadcast(phase.eval_dirs(wo, *wi));
             (f, f)
@@ -912,8 +900,7 @@ impl<F: Float> Paths<F> {
         let medium_of = |_: F::Mask, _: &V3<F>, paths: &Self| paths.medium;
         let at = (p, V3::splat(Vec3::ZERO));
         self.next_event::<true>(scene, m, u, at, f_pdf, medium_of, stats, shadow);
-        let u = [draw::<F>(&mut self.rng, m), draw::<F>(&mut self.rng, m)];
-        let (wi, pdf_dir) = phase.sample(wo, u);
+        let (wi, pdf_dir) = phase.sample(wo, [u3, u4]);
         let ok = m & pdf_dir.gt(zero);
         self.kill(m & !ok);
         let m = ok;
@@ -1015,7 +1002,7 @@ impl Paths<f32> {
         camera_ray: Ray,
         lambda: Vec4,
         opts: &PathOptions,
-        rng: Pcg32,
+        rng: Streams<f32>,
         shift_rng: LazyStream,
     ) -> Paths<f32> {
         let mut p = Paths::empty();
@@ -1026,7 +1013,7 @@ impl Paths<f32> {
             camera_ray.org.into(),
             camera_ray.dir.into(),
             lambda.into(),
-            &[rng],
+            &rng,
             &[shift_rng],
             &[0],
         );
@@ -1065,7 +1052,7 @@ impl Paths<f32> {
         let denom = (self.ratio * (Spec::from(pdf) / p0)).sum();
         // The children's random streams: keyed by two draws of this path's stream, so
         // they are the same at every width.
-        let rng = &mut self.rng[0];
+        let rng = &mut self.rng;
         let key = ((rng.next_u32() as u64) << 32) | rng.next_u32() as u64;
         let (pv, nv) = (V3::<f32>::from(p), V3::<f32>::from(ng));
         for (k, wi) in dirs.into_iter().enumerate() {
@@ -1089,7 +1076,7 @@ impl Paths<f32> {
                 child.medium = [medium_after_crossing(scene, geom, ng, wi)];
             }
             child.le_emitter = [NO_EMITTER];
-            child.rng = [Pcg32::new(mix64(key), k as u64)];
+            child.rng = Streams::new(mix64(key), k as u64);
             child.shift_rng = [LazyStream::new(key, k as u64, u64::MAX)];
             child.constant = false;
             if child.roulette(true) {

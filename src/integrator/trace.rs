@@ -12,7 +12,7 @@ use super::shadow::Shadows;
 use super::{PathOptions, PathStats};
 use crate::accel::{self, Coherence, Ray};
 use crate::method::Spectral;
-use crate::sampler::{LazyStream, Pcg32};
+use crate::sampler::{LazyStream, Streams};
 use crate::scene::Scene;
 use crate::simd::{Float, Lanes, Mask, F4, F8, V3};
 use crate::spectrum;
@@ -339,24 +339,20 @@ impl<F: Width> Tracer<F> {
         lambdas: &mut [Vec4],
     ) {
         let camera = &scene.camera;
-        let mut rng: F::Arr<Pcg32> = Lanes::splat(Pcg32::new(0, 0));
+        let mut rng = Streams::<F>::idle();
         let mut shift: F::Arr<LazyStream> = Lanes::splat(LazyStream::new(0, 0, 0));
         let mut slot: F::Arr<u32> = Lanes::splat(0);
-        let mut xyu: F::Arr<[f32; 3]> = Lanes::splat([0.5, 0.5, 0.0]);
         for i in m.iter() {
             let id = ids[i];
             let pixel = id.y as u64 * camera.width as u64 + id.x as u64;
-            let mut r = Pcg32::for_sample(seed, pixel, id.index as u64);
-            let [jx, jy] = r.next_2d();
-            xyu[i] = [id.x as f32 + jx, id.y as f32 + jy, r.next_f32()];
-            rng[i] = r;
+            rng.set_lane(i, Streams::for_sample(seed, pixel, id.index as u64));
             // The shift stream: a second, independent stream of the same pixel sample.
             shift[i] = LazyStream::new(seed, pixel, id.index as u64);
             slot[i] = id.slot;
         }
-        let x = F::from_fn(|i| xyu[i][0]);
-        let y = F::from_fn(|i| xyu[i][1]);
-        let u = F::from_fn(|i| xyu[i][2]);
+        let x = F::from_fn(|i| ids[i].x as f32) + rng.draw(m);
+        let y = F::from_fn(|i| ids[i].y as f32) + rng.draw(m);
+        let u = rng.draw(m);
         let dirs = camera.dirs(x, y);
         let lambda = match opts.method.spectral {
             Spectral::Hwss => spectrum::hwss(opts.method.wavelengths, u, m),

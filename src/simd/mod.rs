@@ -53,8 +53,8 @@ pub fn map4(v: glam::Vec4, f: impl Fn(f32) -> f32) -> glam::Vec4 {
 
 use std::fmt::Debug;
 use std::ops::{
-    Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, DivAssign, Index, IndexMut, Mul,
-    MulAssign, Neg, Not, Sub, SubAssign,
+    Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, BitXor, Div, DivAssign, Index,
+    IndexMut, Mul, MulAssign, Neg, Not, Sub, SubAssign,
 };
 
 /// One `bool` per path: which lanes an operation applies to.
@@ -142,6 +142,52 @@ impl<T: Copy + Debug + Send + Sync> Lanes<T> for [T; 1] {
     }
 }
 
+/// One `u32` per path (`u32`, `wide::u32x4`, `wide::u32x8`): the words of the paths'
+/// random streams, so that every path's generator advances in the same instructions.
+pub trait Words:
+    Copy + Debug + Send + Sync + 'static + BitXor<Output = Self> + BitOr<Output = Self>
+{
+    /// Every lane `x`.
+    fn splat(x: u32) -> Self;
+    /// Lane `i`.
+    fn get(self, i: usize) -> u32;
+    /// Sets lane `i`.
+    fn set(&mut self, i: usize, x: u32);
+    /// Lane-wise `self + o` modulo 2³².
+    fn add_wrapping(self, o: Self) -> Self;
+    /// Lane-wise `self << n`.
+    fn shl_by(self, n: u32) -> Self;
+    /// Lane-wise logical `self >> n`.
+    fn shr_by(self, n: u32) -> Self;
+}
+
+impl Words for u32 {
+    #[inline(always)]
+    fn splat(x: u32) -> u32 {
+        x
+    }
+    #[inline(always)]
+    fn get(self, _: usize) -> u32 {
+        self
+    }
+    #[inline(always)]
+    fn set(&mut self, _: usize, x: u32) {
+        *self = x;
+    }
+    #[inline(always)]
+    fn add_wrapping(self, o: u32) -> u32 {
+        self.wrapping_add(o)
+    }
+    #[inline(always)]
+    fn shl_by(self, n: u32) -> u32 {
+        self << n
+    }
+    #[inline(always)]
+    fn shr_by(self, n: u32) -> u32 {
+        self >> n
+    }
+}
+
 /// One `f32` per path, W paths at once (see the module docs).
 pub trait Float:
     Copy
@@ -165,6 +211,8 @@ pub trait Float:
     type Mask: Mask;
     /// Any other per-path data: `[T; W]`.
     type Arr<T: Copy + Debug + Send + Sync>: Lanes<T>;
+    /// One `u32` per path, in a vector.
+    type Words: Words;
     /// W: the number of paths.
     const WIDTH: usize;
 
@@ -212,6 +260,10 @@ pub trait Float:
     fn ne(self, o: Self) -> Self::Mask;
     /// `t` where `m` is set, `f` elsewhere.
     fn select(m: Self::Mask, t: Self, f: Self) -> Self;
+    /// `t` where `m` is set, `f` elsewhere, for words.
+    fn select_words(m: Self::Mask, t: Self::Words, f: Self::Words) -> Self::Words;
+    /// Each lane's top 24 bits as a float in [0, 1) (exact: every such value is a float).
+    fn unit(w: Self::Words) -> Self;
 
     /// Neither NaN nor infinite.
     #[inline(always)]
@@ -274,6 +326,7 @@ impl Mask for bool {
 impl Float for f32 {
     type Mask = bool;
     type Arr<T: Copy + Debug + Send + Sync> = [T; 1];
+    type Words = u32;
     const WIDTH: usize = 1;
 
     #[inline(always)]
@@ -384,6 +437,18 @@ impl Float for f32 {
         } else {
             f
         }
+    }
+    #[inline(always)]
+    fn select_words(m: bool, t: u32, f: u32) -> u32 {
+        if m {
+            t
+        } else {
+            f
+        }
+    }
+    #[inline(always)]
+    fn unit(w: u32) -> f32 {
+        (w >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 }
 

@@ -2,13 +2,13 @@
 //! paths, `wide::f32x8`: one AVX register where the build enables AVX, two SSE registers
 //! otherwise), both written by one macro.
 
-use super::{Float, Lanes, Mask};
+use super::{Float, Lanes, Mask, Words};
 use std::fmt;
 use std::ops::{
     Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, DivAssign, Mul, MulAssign, Neg,
     Not, Sub, SubAssign,
 };
-use wide::{f32x4, f32x8, i32x4, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
+use wide::{f32x4, f32x8, i32x4, i32x8, u32x4, u32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
 
 /// A binary operator and its assigning form for a vector type.
 macro_rules! binop {
@@ -29,10 +29,37 @@ macro_rules! binop {
     };
 }
 
-/// A vector of paths (`$f`) and its mask (`$m`) over `wide`'s `$fx` (`$ix` for bits),
-/// `$n` lanes, lane indices `$i`.
+/// A vector of paths (`$f`) and its mask (`$m`) over `wide`'s `$fx` (`$ix` for bits,
+/// `$ux` for words), `$n` lanes, lane indices `$i`.
 macro_rules! paths {
-    ($f:ident, $m:ident, $fx:ident, $ix:ident, $n:literal, [$($i:literal),+], $doc:literal) => {
+    ($f:ident, $m:ident, $fx:ident, $ix:ident, $ux:ident, $n:literal, [$($i:literal),+], $doc:literal) => {
+        impl Words for $ux {
+            #[inline(always)]
+            fn splat(x: u32) -> $ux {
+                $ux::splat(x)
+            }
+            #[inline(always)]
+            fn get(self, i: usize) -> u32 {
+                self.as_array_ref()[i]
+            }
+            #[inline(always)]
+            fn set(&mut self, i: usize, x: u32) {
+                self.as_array_mut()[i] = x;
+            }
+            #[inline(always)]
+            fn add_wrapping(self, o: $ux) -> $ux {
+                self + o
+            }
+            #[inline(always)]
+            fn shl_by(self, n: u32) -> $ux {
+                self << n
+            }
+            #[inline(always)]
+            fn shr_by(self, n: u32) -> $ux {
+                self >> n
+            }
+        }
+
         #[doc = $doc]
         #[derive(Clone, Copy, Default, PartialEq)]
         #[repr(transparent)]
@@ -138,6 +165,7 @@ macro_rules! paths {
         impl Float for $f {
             type Mask = $m;
             type Arr<T: Copy + fmt::Debug + Send + Sync> = [T; $n];
+            type Words = $ux;
             const WIDTH: usize = $n;
 
             #[inline(always)]
@@ -231,6 +259,16 @@ macro_rules! paths {
             fn select(m: $m, t: $f, f: $f) -> $f {
                 $f(m.0.blend(t.0, f.0))
             }
+            #[inline(always)]
+            fn select_words(m: $m, t: $ux, f: $ux) -> $ux {
+                bytemuck::cast::<$fx, $ux>(m.0).blend(t, f)
+            }
+            #[inline(always)]
+            fn unit(w: $ux) -> $f {
+                // Below 2²⁴, so the signed conversion is exact, as `as f32` is at width 1.
+                let top: $ix = bytemuck::cast(w >> 8_u32);
+                $f(top.round_float() * $fx::splat(1.0 / 16_777_216.0))
+            }
         }
 
         // Written out, not `std::array::from_fn`, which the compiler does not always inline.
@@ -252,6 +290,7 @@ paths!(
     M4,
     f32x4,
     i32x4,
+    u32x4,
     4,
     [0, 1, 2, 3],
     "Four paths' `f32`s (SSE)."
@@ -261,6 +300,7 @@ paths!(
     M8,
     f32x8,
     i32x8,
+    u32x8,
     8,
     [0, 1, 2, 3, 4, 5, 6, 7],
     "Eight paths' `f32`s (AVX, or two SSE registers)."

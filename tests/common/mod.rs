@@ -282,7 +282,7 @@ pub fn mono_estimate(
 ) -> (f64, f64) {
     use stokes::integrator::{radiance, PathOptions, PathStats};
     use stokes::medium::tracking::Tracking;
-    use stokes::sampler::{LazyStream, Pcg32};
+    use stokes::sampler::{LazyStream, Streams};
     let opts = PathOptions {
         method: Method {
             spectral: Spectral::Mono,
@@ -299,7 +299,7 @@ pub fn mono_estimate(
             ray,
             glam::Vec4::splat(lambda_o),
             &opts,
-            Pcg32::for_sample(seed, lambda_o as u64, i),
+            Streams::for_sample(seed, lambda_o as u64, i),
             LazyStream::new(seed, lambda_o as u64, i),
             &mut stats,
         );
