@@ -1003,16 +1003,15 @@ impl Scene {
     }
 }
 
-/// A stream of rays for Embree 3's stream queries (`rtcIntersect1M`, `rtcOccluded1M`),
-/// which Embree 4 no longer has: the benchmark of the renderer's Embree limit replays
-/// rays through them.
-#[cfg(embree3)]
+/// A stream of rays. Embree 3 traces it with its stream queries (`rtcIntersect1M`,
+/// `rtcOccluded1M`), which pack the rays into packets of their own; Embree 4, which no
+/// longer has them, ray by ray. The renderer's shadow rays go through one, and the
+/// benchmark of the renderer's Embree limit replays rays through them.
 #[derive(Default)]
 pub struct RayStream {
     rays: Vec<sys::RTCRayHit>,
 }
 
-#[cfg(embree3)]
 impl RayStream {
     /// Replaces the stream's rays (untraceable ones become empty segments, which Embree
     /// reports as misses).
@@ -1046,6 +1045,12 @@ impl RayStream {
     /// Whether the stream is empty.
     pub fn is_empty(&self) -> bool {
         self.rays.is_empty()
+    }
+
+    /// Whether ray `i` is blocked (after [`Scene::occluded_stream`]).
+    #[inline]
+    pub fn blocked(&self, i: usize) -> bool {
+        self.rays[i].ray.tfar == f32::NEG_INFINITY
     }
 
     /// How many rays hit something (after [`Scene::intersect_stream`]) or are blocked
@@ -1098,6 +1103,19 @@ impl Scene {
                     stride,
                 )
             };
+        }
+    }
+}
+
+#[cfg(embree4)]
+impl Scene {
+    /// Occlusion of every ray of the stream, one `rtcOccluded1` each (Embree 4 has no
+    /// stream queries; `chunk` is Embree 3's).
+    pub fn occluded_stream(&self, stream: &mut RayStream, _chunk: usize, coherence: Coherence) {
+        for r in stream.rays.iter_mut() {
+            let mut args = query::occluded_args(coherence);
+            // SAFETY: the scene is committed; `args` and the ray are valid for the call.
+            unsafe { sys::rtcOccluded1(self.raw, &mut r.ray, &mut args) };
         }
     }
 }

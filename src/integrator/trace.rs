@@ -40,6 +40,11 @@ pub struct Hits<F: Float> {
 
 /// A lane width the renderer traces with: how W rays go to Embree.
 pub trait Width: Float {
+    /// Groups of W paths a tracer keeps in flight. With more than one, their shadow rays
+    /// go to Embree together as a stream ([`PATHS_IN_FLIGHT`]); single rays keep one path
+    /// and trace each shadow ray alone (as a stream they measured slower: the README's
+    /// "Shadow rays as streams").
+    const GROUPS: usize;
     /// The closest hits of the rays `org + t·dir`, t in `[0, tfar]`, of the lanes in
     /// `active` (the other lanes miss).
     fn intersect(
@@ -72,6 +77,7 @@ fn ray1(org: &V3<f32>, dir: &V3<f32>, tfar: f32) -> Ray {
 }
 
 impl Width for f32 {
+    const GROUPS: usize = 1;
     #[inline(always)]
     fn intersect(
         accel: &accel::Scene,
@@ -124,6 +130,7 @@ impl Width for f32 {
 macro_rules! packet_width {
     ($f:ident, $rays:ident, $intersect:ident, $occluded:ident) => {
         impl Width for $f {
+            const GROUPS: usize = PATHS_IN_FLIGHT / <$f as Float>::WIDTH;
             #[inline(always)]
             fn intersect(
                 accel: &accel::Scene,
@@ -220,21 +227,48 @@ impl RayLog {
     }
 }
 
-/// The W lanes of paths and their buffers, kept from one batch of samples to the next.
-pub struct Tracer<F: Width> {
+/// Paths a packet tracer keeps in flight, in groups of W: the shadow rays of all of them
+/// go to Embree together, as one stream. `rtcOccluded1M` packs a stream into packets of
+/// its own and traces it about 1.6× as fast as 4-wide packets or single rays (`stokes
+/// bench limit`: a Cornell box's shadow rays in streams of 32 against 4-wide packets),
+/// while streams of 4 gain nothing.
+pub const PATHS_IN_FLIGHT: usize = 64;
+
+/// W lanes of paths, their shadow rays, and which of them were live before the step.
+struct Group<F: Float> {
     paths: Paths<F>,
     shadows: Shadows<F>,
+    live: F::Mask,
+}
+
+impl<F: Float> Group<F> {
+    fn new(paths: Paths<F>) -> Group<F> {
+        Group {
+            paths,
+            shadows: Shadows::default(),
+            live: F::Mask::splat(false),
+        }
+    }
+}
+
+/// The groups of W lanes of paths and their buffers, kept from one batch of samples to
+/// the next.
+pub struct Tracer<F: Width> {
+    groups: Vec<Group<F>>,
     /// Paths split off at dispersive refractions, waiting for a lane.
     pending: Vec<Paths<f32>>,
+    /// The groups' shadow rays, in group and lane order.
+    shadow_rays: accel::RayStream,
     /// Packet lanes that carried a ray (W > 1).
     pub lanes_used: u64,
     /// Lanes of all packets traced (W per query, W > 1).
     pub lanes_total: u64,
-    /// Refill lanes only when every lane is free (the samples of a packet run until the
-    /// longest path ends, as Mitsuba 3 runs them), to measure what refilling buys.
+    /// Refill a group's lanes only when every one of them is free (the samples of a
+    /// packet run until the longest path ends, as Mitsuba 3 runs them), to measure what
+    /// refilling buys.
     pub lockstep: bool,
-    /// The lanes the tracer may fill (bit i for lane i; all by default): a test hook for
-    /// packets with empty lanes.
+    /// The lanes of each group the tracer may fill (bit i for lane i; all by default): a
+    /// test hook for packets with empty lanes.
     pub usable: u32,
     /// Where every traced ray is recorded, if anywhere (`stokes bench limit`).
     pub log: Option<Box<RayLog>>,
@@ -243,9 +277,9 @@ pub struct Tracer<F: Width> {
 impl<F: Width> Default for Tracer<F> {
     fn default() -> Tracer<F> {
         Tracer {
-            paths: Paths::empty(),
-            shadows: Shadows::default(),
+            groups: (0..F::GROUPS).map(|_| Group::new(Paths::empty())).collect(),
             pending: Vec::new(),
+            shadow_rays: accel::RayStream::default(),
             lanes_used: 0,
             lanes_total: 0,
             lockstep: false,
@@ -259,6 +293,10 @@ impl<F: Width> Tracer<F> {
     /// Runs every sample of `work` to its end: `results[slot]` gets the sample's radiance
     /// at its camera wavelengths (balance-heuristic weighted, see [`super::radiance`]),
     /// `lambdas[slot]` the wavelengths.
+    ///
+    /// Each round steps every group once, then traces the shadow rays of all groups,
+    /// then hands in the paths that ended: each path's radiance takes the same additions
+    /// in the same order as if its group ran alone.
     #[allow(clippy::too_many_arguments)]
     pub fn run<const MEDIA: bool>(
         &mut self,
@@ -271,15 +309,27 @@ impl<F: Width> Tracer<F> {
         stats: &mut PathStats,
     ) {
         loop {
-            self.refill(scene, opts, seed, work, lambdas);
-            let live = self.paths.alive;
-            if live.none() {
+            let mut any = false;
+            for k in 0..self.groups.len() {
+                self.refill(k, scene, opts, seed, work, lambdas);
+                let live = self.groups[k].paths.alive;
+                self.groups[k].live = live;
+                if live.any() {
+                    any = true;
+                    self.advance::<MEDIA>(k, scene, opts, stats);
+                }
+            }
+            if !any {
                 break;
             }
-            self.advance::<MEDIA>(scene, opts, stats);
-            for i in (live & !self.paths.alive).iter() {
-                let slot = self.paths.slot[i] as usize;
-                self.paths.add_to(i, &mut results[slot]);
+            if !MEDIA {
+                self.trace_shadows(scene);
+            }
+            for g in &self.groups {
+                for i in (g.live & !g.paths.alive).iter() {
+                    let slot = g.paths.slot[i] as usize;
+                    g.paths.add_to(i, &mut results[slot]);
+                }
             }
         }
     }
@@ -289,20 +339,22 @@ impl<F: Width> Tracer<F> {
     #[inline(always)]
     fn refill(
         &mut self,
+        k: usize,
         scene: &Scene,
         opts: &PathOptions,
         seed: u64,
         work: &mut impl Iterator<Item = SampleId>,
         lambdas: &mut [Vec4],
     ) {
-        let mut free = !self.paths.alive & F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
-        if free.none() || (self.lockstep && self.paths.alive.any()) {
+        let paths = &mut self.groups[k].paths;
+        let mut free = !paths.alive & F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
+        if free.none() || (self.lockstep && paths.alive.any()) {
             return;
         }
         for i in free.iter() {
             match self.pending.pop() {
                 Some(child) => {
-                    self.paths.set_path(i, &child);
+                    paths.set_path(i, &child);
                     free = free.with(i, false);
                 }
                 None => break,
@@ -321,7 +373,7 @@ impl<F: Width> Tracer<F> {
         }
         if fresh.any() {
             super::census::record(super::census::Part::Start, fresh);
-            self.start(scene, opts, seed, fresh, &ids, lambdas);
+            Self::start(paths, scene, opts, seed, fresh, &ids, lambdas);
         }
     }
 
@@ -330,7 +382,7 @@ impl<F: Width> Tracer<F> {
     /// pixel, sample index), in that order of draws.
     #[inline(always)]
     fn start(
-        &mut self,
+        paths: &mut Paths<F>,
         scene: &Scene,
         opts: &PathOptions,
         seed: u64,
@@ -362,20 +414,21 @@ impl<F: Width> Tracer<F> {
             lambdas[slot[i] as usize] = lambda.path(i);
         }
         let org = V3::splat(camera.position);
-        self.paths
-            .start(scene, opts, m, org, dirs, lambda, &rng, &shift, &slot);
+        paths.start(scene, opts, m, org, dirs, lambda, &rng, &shift, &slot);
     }
 
-    /// One step of every live path: trace, step, trace the shadow rays.
+    /// One step of group `k`'s live paths: trace, step, and with media trace the shadow
+    /// rays (without media [`Self::trace_shadows`] traces them with every group's).
     #[inline(always)]
     fn advance<const MEDIA: bool>(
         &mut self,
+        k: usize,
         scene: &Scene,
         opts: &PathOptions,
         stats: &mut PathStats,
     ) {
         let accel = &scene.accel;
-        let paths = &mut self.paths;
+        let Group { paths, shadows, .. } = &mut self.groups[k];
         let live = paths.alive;
         // Camera rays that start together go out as one coherent packet.
         let coherence = if F::WIDTH > 1 && (live & !paths.at_camera).none() {
@@ -394,24 +447,9 @@ impl<F: Width> Tracer<F> {
             self.lanes_used += live.bits().count_ones() as u64;
             self.lanes_total += F::WIDTH as u64;
         }
-        let shadows = &mut self.shadows;
-        shadows.active = F::Mask::splat(false);
+        // `shadows` is empty: the last round's were traced and cleared.
         paths.step::<MEDIA>(scene, opts, &hits, stats, shadows, &mut self.pending);
-        if shadows.active.none() {
-            return;
-        }
         if !MEDIA {
-            let s = &*shadows;
-            if let Some(log) = self.log.as_deref_mut() {
-                RayLog::push(&mut log.shadow, s.active, &s.org, &s.dir, s.tfar);
-            }
-            let blocked = F::occluded(accel, &s.org, &s.dir, s.tfar, s.active);
-            let reached = s.active & !blocked;
-            paths.l.set_where(reached, paths.l + s.contribution);
-            if F::WIDTH > 1 {
-                self.lanes_used += s.active.bits().count_ones() as u64;
-                self.lanes_total += F::WIDTH as u64;
-            }
             return;
         }
         while shadows.active.any() {
@@ -437,6 +475,62 @@ impl<F: Width> Tracer<F> {
             stats.rays += shadows.active.bits().count_ones() as u64;
         }
     }
+
+    /// The shadow rays every group asked for (scenes without media): each unblocked one
+    /// adds its contribution to its path.
+    fn trace_shadows(&mut self, scene: &Scene) {
+        let accel = &scene.accel;
+        let groups = &mut self.groups;
+        if let Some(log) = self.log.as_deref_mut() {
+            for s in groups.iter().map(|g| &g.shadows) {
+                RayLog::push(&mut log.shadow, s.active, &s.org, &s.dir, s.tfar);
+            }
+        }
+        if F::GROUPS == 1 {
+            for g in groups.iter_mut().filter(|g| g.shadows.active.any()) {
+                let s = &mut g.shadows;
+                let blocked = F::occluded(accel, &s.org, &s.dir, s.tfar, s.active);
+                g.paths
+                    .l
+                    .set_where(s.active & !blocked, g.paths.l + s.contribution);
+                if F::WIDTH > 1 {
+                    self.lanes_used += s.active.bits().count_ones() as u64;
+                    self.lanes_total += F::WIDTH as u64;
+                }
+                s.active = F::Mask::splat(false);
+            }
+            return;
+        }
+        let rays = groups.iter().flat_map(|g| {
+            let s = &g.shadows;
+            s.active.iter().map(|i| Ray {
+                org: s.org.path(i),
+                dir: s.dir.path(i),
+                tnear: 0.0,
+                tfar: s.tfar.get(i),
+            })
+        });
+        self.shadow_rays.fill(rays);
+        if self.shadow_rays.is_empty() {
+            return;
+        }
+        let n = self.shadow_rays.len();
+        accel.occluded_stream(&mut self.shadow_rays, n, Coherence::Incoherent);
+        let mut r = 0;
+        for g in groups.iter_mut().filter(|g| g.shadows.active.any()) {
+            let s = &mut g.shadows;
+            let mut bits = 0;
+            for i in s.active.iter() {
+                bits |= (self.shadow_rays.blocked(r) as u32) << i;
+                r += 1;
+            }
+            let blocked = F::Mask::from_fn(|i| bits >> i & 1 != 0);
+            g.paths
+                .l
+                .set_where(s.active & !blocked, g.paths.l + s.contribution);
+            s.active = F::Mask::splat(false);
+        }
+    }
 }
 
 /// Runs one path (and the paths it splits into) to its end with single rays; returns its
@@ -448,7 +542,7 @@ pub fn trace_one(
     stats: &mut PathStats,
 ) -> Vec4 {
     let mut tracer = Tracer::<f32> {
-        paths: path,
+        groups: vec![Group::new(path)],
         ..Tracer::default()
     };
     let mut results = [Vec4::ZERO];
