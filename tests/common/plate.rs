@@ -51,8 +51,13 @@ pub const CORNERS: [(usize, usize); 4] = [(0, 0), (24, 0), (0, 24), (24, 24)];
 
 /// The scene `text` at 256 spp, seed 17, with the default method.
 pub fn film(text: &str) -> Film {
+    film_at(text, 256)
+}
+
+/// [`film`] at `spp` samples per pixel.
+pub fn film_at(text: &str, spp: u32) -> Film {
     TestRender::at(32, 32)
-        .spp(256)
+        .spp(spp)
         .seed(17)
         .film(&mut scene_from(text))
 }
