@@ -310,7 +310,7 @@ impl<F: Width> Tracer<F> {
     ) {
         loop {
             let mut any = false;
-            for k in 0..self.groups.len() {
+            for k in 0..F::GROUPS {
                 self.refill(k, scene, opts, seed, work, lambdas);
                 let live = self.groups[k].paths.alive;
                 self.groups[k].live = live;
@@ -478,6 +478,7 @@ impl<F: Width> Tracer<F> {
 
     /// The shadow rays every group asked for (scenes without media): each unblocked one
     /// adds its contribution to its path.
+    #[inline(always)]
     fn trace_shadows(&mut self, scene: &Scene) {
         let accel = &scene.accel;
         let groups = &mut self.groups;
