@@ -235,21 +235,30 @@ fn step<W: Words>([s0, s1, s2, s3]: [W; 4]) -> ([W; 4], W) {
 mod tests {
     use super::*;
 
-    #[test]
-    fn uniform_in_unit_interval_chi_square() {
-        let mut r = Pcg32::for_sample(7, 3, 1);
-        let bins = 64;
-        let n = 200_000;
-        let mut counts = vec![0u32; bins];
-        for _ in 0..n {
-            let x = r.next_f32();
-            assert!((0.0..1.0).contains(&x));
-            counts[(x * bins as f32) as usize] += 1;
-        }
-        let e = n as f64 / bins as f64;
+    /// 64 equally likely cells' counts pass the chi-square test at the 0.999 level.
+    fn assert_uniform_64(counts: &[u32]) {
+        assert_eq!(counts.len(), 64);
+        let e = counts.iter().sum::<u32>() as f64 / 64.0;
         let chi2: f64 = counts.iter().map(|&c| (c as f64 - e).powi(2) / e).sum();
         // 63 degrees of freedom: the 0.999 quantile is about 103.4.
         assert!(chi2 < 103.4, "chi2 = {chi2}");
+    }
+
+    /// 200,000 draws of `next` in [0, 1), uniform over 64 bins.
+    fn assert_uniform_draws(mut next: impl FnMut() -> f32) {
+        let mut counts = [0u32; 64];
+        for _ in 0..200_000 {
+            let x = next();
+            assert!((0.0..1.0).contains(&x));
+            counts[(x * 64.0) as usize] += 1;
+        }
+        assert_uniform_64(&counts);
+    }
+
+    #[test]
+    fn uniform_in_unit_interval_chi_square() {
+        let mut r = Pcg32::for_sample(7, 3, 1);
+        assert_uniform_draws(|| r.next_f32());
     }
 
     #[test]
@@ -334,18 +343,7 @@ mod tests {
     #[test]
     fn streams_uniform_chi_square_and_distinct() {
         let mut r = Streams::<f32>::for_sample(7, 3, 1);
-        let bins = 64;
-        let n = 200_000;
-        let mut counts = vec![0u32; bins];
-        for _ in 0..n {
-            let x = r.next_f32();
-            assert!((0.0..1.0).contains(&x));
-            counts[(x * bins as f32) as usize] += 1;
-        }
-        let e = n as f64 / bins as f64;
-        let chi2: f64 = counts.iter().map(|&c| (c as f64 - e).powi(2) / e).sum();
-        // 63 degrees of freedom: the 0.999 quantile is about 103.4.
-        assert!(chi2 < 103.4, "chi2 = {chi2}");
+        assert_uniform_draws(|| r.next_f32());
         // Across streams: the first two draws of neighbouring pixels' streams, 8 × 8 cells
         // of (pixel p's first, pixel p + 1's first) and of (p's first, p's second).
         let mut across = [[0u32; 64]; 2];
@@ -359,9 +357,7 @@ mod tests {
             across[1][cell(a0, a1)] += 1;
         }
         for counts in across {
-            let e = n as f64 / 64.0;
-            let chi2: f64 = counts.iter().map(|&c| (c as f64 - e).powi(2) / e).sum();
-            assert!(chi2 < 103.4, "chi2 = {chi2}");
+            assert_uniform_64(&counts);
         }
         let first =
             |seed, pixel, sample| Streams::<f32>::for_sample(seed, pixel, sample).next_u32();
