@@ -1113,15 +1113,17 @@ fn renders_at_the_load_limits_stay_finite() {
             }
         }
     }
-    // Must-fail control: past the limit (forced after loading) samples overflow.
+    // Must-fail control: past the limit (forced after loading) samples overflow. The film
+    // multiplies each lane's radiance once by its colour weight (at most about 4), so an
+    // emitter of 1e38 may still give finite samples; one of 1e39 overflows f32 itself.
     let mut scene = scene_from(AT_THE_LIMITS);
-    scene.lights.emitters[0].scale *= 1e8;
+    scene.lights.emitters[0].scale *= 1e9;
     let o = opts(Tracking::FluoAware, Spectral::Hwss, Rays::Single);
     scene.set_resolution(8, 8);
     let r = stokes::integrator::render::render(&scene, &o.opts, &|| {}).unwrap();
     assert!(
         r.stats.nonfinite > 0,
-        "radiance 1e38 gave no non-finite sample"
+        "radiance 1e39 gave no non-finite sample"
     );
     // And the loader refuses the same scene written with that scale.
     let past = AT_THE_LIMITS.replace("scale = 1e10", "scale = 1e16");

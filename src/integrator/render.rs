@@ -6,7 +6,6 @@
 
 use super::trace::{RayLog, SampleId, Tracer, Width};
 use super::{PathOptions, PathStats};
-use crate::color;
 use crate::error::{Detail, Error};
 use crate::method::{Layout, Method, Rays};
 use crate::output::Plane;
@@ -14,8 +13,7 @@ use crate::scene::RenderDesc;
 use crate::scene::Scene;
 use crate::simd::{F4, F8};
 use crate::spectral_exr::Bins;
-use crate::spectrum;
-use crate::spectrum::SampledWavelengths;
+use crate::spectrum::{RgbWeights, SampledWavelengths, Wavelengths};
 use crate::Result;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -280,11 +278,12 @@ struct RowSums<'a> {
 
 impl RowSums<'_> {
     /// Adds pixel `i`'s sample: its colour `c` and, if spectral, each lane's radiance
-    /// `l` at `lambda` to the bin holding that wavelength.
+    /// `l` at `lambda` (drawn with pdf `w`) to the bin holding that wavelength.
     #[inline]
-    fn add(&mut self, i: usize, c: Vec3, lambda: Vec4, l: Vec4) {
+    fn add(&mut self, i: usize, c: Vec3, w: Wavelengths, lambda: Vec4, l: Vec4) {
         accumulate(&mut self.sum[i], &mut self.sq[i], c);
         if let Some(bins) = self.bins {
+            let l = w.film_weight(lambda).map_or(l, |v| l * v);
             let nb = bins.count as usize;
             let range = i * nb..(i + 1) * nb;
             accumulate_bins(
@@ -338,11 +337,9 @@ pub struct RenderResult {
     pub seconds: f64,
 }
 
-/// A pixel sample's radiance `l` at the camera wavelengths `lambda` as linear sRGB, or
-/// `None` (counted) if it is NaN or infinite.
+/// A pixel sample's linear sRGB, or `None` (counted) if it is NaN or infinite.
 #[inline]
-fn finish_sample(lambda: Vec4, l: Vec4, poison: bool, stats: &mut PathStats) -> Option<Vec3> {
-    let rgb = color::xyz_to_linear_srgb(spectrum::xyz_estimate(lambda, l));
+fn finish_sample(rgb: Vec3, poison: bool, stats: &mut PathStats) -> Option<Vec3> {
     let rgb = if poison { Vec3::NAN } else { rgb };
     if rgb.is_finite() {
         Some(rgb)
@@ -497,6 +494,7 @@ fn pass<F: Width, const MEDIA: bool>(
     let (scene, opts) = (job.scene, job.opts);
     let (w, pixels) = (scene.camera.width as usize, scene.camera.pixel_count());
     let wavelengths = job.path.method.wavelengths;
+    let rgb_weights = RgbWeights::of(wavelengths);
     film.row_groups(ROWS)
         .into_par_iter()
         .enumerate()
@@ -529,12 +527,10 @@ fn pass<F: Width, const MEDIA: bool>(
                             let slot = i * n as usize + k as usize;
                             let poison =
                                 poisoned(job.inject_nonfinite_every, pixels, pixel, s0 + k);
-                            let (lambda, mut l) = (lambdas[slot], results[slot]);
-                            if let Some(w) = wavelengths.film_weight(lambda) {
-                                l *= w;
-                            }
-                            if let Some(c) = finish_sample(lambda, l, poison, &mut st) {
-                                sums.add(i, c, lambda, l);
+                            let (lambda, l) = (lambdas[slot], results[slot]);
+                            let rgb = rgb_weights.rgb(lambda, l);
+                            if let Some(c) = finish_sample(rgb, poison, &mut st) {
+                                sums.add(i, c, wavelengths, lambda, l);
                             }
                         }
                     }

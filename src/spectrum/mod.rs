@@ -21,12 +21,14 @@
 //! - `Scaled(s, k)`: `k` times `s`.
 //!
 //! Colour: [`spectrum_to_xyz`] gives the exact XYZ of a radiance spectrum (Y = 1 for a
-//! constant 1), [`xyz_estimate`] the film's Monte Carlo estimate of it from four lanes.
+//! constant 1), [`xyz_estimate`] the Monte Carlo estimate of it from four lanes, and
+//! [`RgbWeights`] the film's: each lane's linear sRGB in one look-up.
 
 mod blackbody;
 mod cie;
 mod curve;
 pub mod desc;
+mod rgb_weights;
 pub mod upsample;
 mod wavelengths;
 
@@ -41,6 +43,7 @@ pub use cie::{
 };
 pub use curve::{csv_column, parse_csv, read_csv, Tabulated};
 pub use desc::{Range, SpectrumDesc, SpectrumTable};
+pub use rgb_weights::RgbWeights;
 pub use upsample::RgbSpectrum;
 pub use wavelengths::{hwss, mono, SampledWavelengths, Wavelengths, VISIBLE_FLOOR};
 
