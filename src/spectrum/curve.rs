@@ -16,7 +16,7 @@
 
 use super::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::error::{Detail, Error};
-use crate::simd::{Float, Mask, F4, M4};
+use crate::simd::{Float, Lanes, Mask, F4, M4};
 use crate::Result;
 use glam::Vec4;
 use std::path::Path;
@@ -32,8 +32,9 @@ pub struct Tabulated {
     /// The curve at every integer nm of [`LAMBDA_MIN`, `LAMBDA_MAX`] when every sample
     /// lies on an integer nm (most measured tables): the same piecewise-linear function
     /// (each cell of 1 nm lies within one of its pieces), evaluated with one index and no
-    /// division, the renderer's hot path.
-    nm: Option<Box<[f32]>>,
+    /// division, the renderer's hot path. Cell k holds the values at both its ends, so a
+    /// lane reads one pair.
+    nm: Option<Box<[[f32; 2]]>>,
 }
 
 /// Cells of the integer-nm table.
@@ -102,7 +103,8 @@ impl Tabulated {
             nm: None,
         };
         if t.wavelengths.iter().all(|w| w.fract() == 0.0) {
-            let table = (0..=NM_CELLS).map(|k| t.eval_samples(LAMBDA_MIN + k as f32));
+            let at = |k: usize| t.eval_samples(LAMBDA_MIN + k as f32);
+            let table = (0..NM_CELLS).map(|k| [at(k), at(k + 1)]);
             t.nm = Some(table.collect());
         }
         t
@@ -174,8 +176,8 @@ impl Tabulated {
             .max(F::splat(0.0))
             .min(F::splat((NM_CELLS - 1) as f32));
         let k = cell.to_index();
-        let at = |i: usize, d: usize| nm[k[i] as usize + d];
-        let (v0, v1) = (F::from_fn(|i| at(i, 0)), F::from_fn(|i| at(i, 1)));
+        let ends: F::Arr<[f32; 2]> = Lanes::from_fn(|i| nm[k[i] as usize]);
+        let (v0, v1) = (F::from_fn(|i| ends[i][0]), F::from_fn(|i| ends[i][1]));
         let t = x - cell;
         let v = (v0 + t * (v1 - v0)).masked(inside);
         let off = inside & !on_table;
