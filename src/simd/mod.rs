@@ -36,6 +36,12 @@ pub use vec3::V3;
 /// Gathers per-path records (a light triangle, a spectral value) as whole vectors.
 #[inline(always)]
 pub fn columns<F: Float>(rows: &F::Arr<glam::Vec4>) -> [F; 4] {
+    F::columns(rows)
+}
+
+/// [`columns`] lane by lane, for any width.
+#[inline(always)]
+fn columns_by_lane<F: Float>(rows: &F::Arr<glam::Vec4>) -> [F; 4] {
     [
         F::from_fn(|i| rows[i].x),
         F::from_fn(|i| rows[i].y),
@@ -245,6 +251,12 @@ pub trait Float:
     fn frexp(self) -> (Self, Self);
     /// Each lane truncated to an index, for lanes in [0, 2³¹) (table lookups).
     fn to_index(self) -> Self::Arr<u32>;
+
+    /// The four columns of W rows (see [`columns`]); four paths transpose in registers.
+    #[inline(always)]
+    fn columns(rows: &Self::Arr<glam::Vec4>) -> [Self; 4] {
+        columns_by_lane(rows)
+    }
 
     /// self < o.
     fn lt(self, o: Self) -> Self::Mask;
@@ -466,6 +478,30 @@ fn trunc_i32(x: f32) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The packed transposes put lane i of column k at `rows[i][k]`, as lane by lane does.
+    #[test]
+    fn columns_transpose_rows_at_every_width() {
+        fn check<F: Float>() {
+            let rows: F::Arr<glam::Vec4> = Lanes::from_fn(|i| {
+                glam::Vec4::from_array(std::array::from_fn(|k| (10 * i + k) as f32))
+            });
+            let (packed, by_lane) = (F::columns(&rows), columns_by_lane::<F>(&rows));
+            for k in 0..4 {
+                for i in 0..F::WIDTH {
+                    assert_eq!(
+                        packed[k].get(i),
+                        (10 * i + k) as f32,
+                        "lane {i}, column {k}"
+                    );
+                    assert_eq!(packed[k].get(i), by_lane[k].get(i));
+                }
+            }
+        }
+        check::<f32>();
+        check::<F4>();
+        check::<F8>();
+    }
 
     /// Every operation of F4 agrees with f32's, lane by lane, bit for bit.
     #[test]

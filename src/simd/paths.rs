@@ -228,6 +228,10 @@ macro_rules! paths {
                 ($f::from_bits(m), $f(e.round_float()))
             }
             #[inline(always)]
+            fn columns(rows: &[glam::Vec4; $n]) -> [$f; 4] {
+                $f::columns_of(rows)
+            }
+            #[inline(always)]
             fn to_index(self) -> [u32; $n] {
                 bytemuck::cast(self.0.fast_trunc_int())
             }
@@ -305,3 +309,21 @@ paths!(
     [0, 1, 2, 3, 4, 5, 6, 7],
     "Eight paths' `f32`s (AVX, or two SSE registers)."
 );
+
+impl F4 {
+    /// [`Float::columns`] of four rows: one 4×4 transpose in SSE registers.
+    #[inline(always)]
+    fn columns_of(rows: &[glam::Vec4; 4]) -> [F4; 4] {
+        let rows = rows.map(|r| f32x4::from(r.to_array()));
+        f32x4::transpose(rows).map(F4)
+    }
+}
+
+impl F8 {
+    /// [`Float::columns`] of eight rows, lane by lane.
+    #[inline(always)]
+    fn columns_of(rows: &[glam::Vec4; 8]) -> [F8; 4] {
+        let column = |k: usize| F8(f32x8::new(rows.map(|r| r[k])));
+        [column(0), column(1), column(2), column(3)]
+    }
+}
