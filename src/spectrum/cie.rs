@@ -73,14 +73,6 @@ pub fn cie_xyz(lambda: f32) -> Vec3 {
     cmf_table().lookup(lambda).truncate()
 }
 
-/// [`cie_xyz`] for four wavelengths at once (the film's hot path: one table fetch and
-/// two direct indices per lane, no search).
-#[inline]
-pub fn cie_xyz4(lambda: Vec4) -> [Vec3; 4] {
-    let table = cmf_table();
-    lambda.to_array().map(|l| table.lookup(l).truncate())
-}
-
 /// Monte Carlo estimate of a path's XYZ from its four lanes.
 ///
 /// `value` holds each lane's radiance estimate with the multiple-importance weights (for
@@ -204,22 +196,13 @@ mod tests {
     }
 
     #[test]
-    fn four_lane_lookup_matches_scalar() {
-        let l = Vec4::new(360.0, 471.3, 699.99, 829.5);
-        let four = cie_xyz4(l);
-        for (k, &lambda) in l.to_array().iter().enumerate() {
-            assert_eq!(four[k], cie_xyz(lambda));
-        }
-    }
-
-    #[test]
     fn estimate_sums_lanes() {
         let l = Vec4::new(450.0, 550.0, 650.0, 750.0);
         let one = xyz_estimate(l, Vec4::new(1.0, 0.0, 0.0, 0.0));
         let scale = (LAMBDA_MAX - LAMBDA_MIN) / CIE_Y_INTEGRAL;
         assert!((one - cie_xyz(450.0) * scale).abs().max_element() < 1e-5);
         let all = xyz_estimate(l, Vec4::ONE);
-        let expect: Vec3 = cie_xyz4(l).iter().copied().sum::<Vec3>() * scale;
+        let expect: Vec3 = l.to_array().map(cie_xyz).iter().sum::<Vec3>() * scale;
         assert!((all - expect).abs().max_element() < 1e-5);
     }
 

@@ -38,8 +38,8 @@ use glam::Vec4;
 
 pub use blackbody::{peak_value as blackbody_peak_value, peak_wavelength, planck};
 pub use cie::{
-    cie_xyz, cie_xyz4, illuminant, reflectance_to_xyz, spectrum_to_xyz, xyz_estimate,
-    CIE_Y_INTEGRAL, ILLUMINANT_NAMES,
+    cie_xyz, illuminant, reflectance_to_xyz, spectrum_to_xyz, xyz_estimate, CIE_Y_INTEGRAL,
+    ILLUMINANT_NAMES,
 };
 pub use curve::{csv_column, parse_csv, read_csv, Tabulated};
 pub use desc::{Range, SpectrumDesc, SpectrumTable};
