@@ -32,7 +32,7 @@ pub use envmap::EnvMap;
 
 use crate::error::{Detail, Key, KeyError};
 use crate::scene::Context;
-use crate::simd::{columns, Float, Lanes, Mask, V3};
+use crate::simd::{Float, Lanes, Mask, V3};
 use crate::spectrum::{self, Range, Spectrum, SpectrumDesc, LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec3, Vec4};
 use serde::Deserialize;
@@ -540,7 +540,7 @@ impl Lights {
         p: V3<F>,
         u: [F; 3],
     ) {
-        let column = |k: usize| columns::<F>(&Lanes::from_fn(|i| rows[i][k]));
+        let column = |k: usize| F::columns(&Lanes::from_fn(|i| rows[i][k]));
         let ([p0x, p0y, p0z, pdf_area], [e1x, e1y, e1z, two_sided]) = (column(0), column(1));
         let ([e2x, e2y, e2z, emitter], [nx, ny, nz, samplable]) = (column(2), column(3));
         let (p0, e1, e2) = (

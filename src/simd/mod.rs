@@ -32,24 +32,6 @@ pub use paths::{F4, F8, M4, M8};
 pub use spec::Spec;
 pub use vec3::V3;
 
-/// The four columns of W rows of four values: lane i of column k is `rows[i][k]`.
-/// Gathers per-path records (a light triangle, a spectral value) as whole vectors.
-#[inline(always)]
-pub fn columns<F: Float>(rows: &F::Arr<glam::Vec4>) -> [F; 4] {
-    F::columns(rows)
-}
-
-/// [`columns`] lane by lane, for any width.
-#[inline(always)]
-fn columns_by_lane<F: Float>(rows: &F::Arr<glam::Vec4>) -> [F; 4] {
-    [
-        F::from_fn(|i| rows[i].x),
-        F::from_fn(|i| rows[i].y),
-        F::from_fn(|i| rows[i].z),
-        F::from_fn(|i| rows[i].w),
-    ]
-}
-
 /// `f` applied to each of the four HWSS wavelengths' values: `Vec4::to_array().map(f)`
 /// written out, since the compiler leaves that closure as a call per element in hot code.
 #[inline(always)]
@@ -252,10 +234,17 @@ pub trait Float:
     /// Each lane truncated to an index, for lanes in [0, 2³¹) (table lookups).
     fn to_index(self) -> Self::Arr<u32>;
 
-    /// The four columns of W rows (see [`columns`]); four paths transpose in registers.
+    /// The four columns of W rows of four values: lane i of column k is `rows[i][k]`.
+    /// Gathers per-path records (a light triangle, a spectral value) as whole vectors;
+    /// four paths transpose in registers, the other widths go lane by lane.
     #[inline(always)]
     fn columns(rows: &Self::Arr<glam::Vec4>) -> [Self; 4] {
-        columns_by_lane(rows)
+        [
+            Self::from_fn(|i| rows[i].x),
+            Self::from_fn(|i| rows[i].y),
+            Self::from_fn(|i| rows[i].z),
+            Self::from_fn(|i| rows[i].w),
+        ]
     }
 
     /// self < o.
@@ -479,22 +468,18 @@ fn trunc_i32(x: f32) -> i32 {
 mod tests {
     use super::*;
 
-    /// The packed transposes put lane i of column k at `rows[i][k]`, as lane by lane does.
+    /// Every width, the 4×4 transpose included, puts lane i of column k at `rows[i][k]`.
     #[test]
     fn columns_transpose_rows_at_every_width() {
         fn check<F: Float>() {
             let rows: F::Arr<glam::Vec4> = Lanes::from_fn(|i| {
                 glam::Vec4::from_array(std::array::from_fn(|k| (10 * i + k) as f32))
             });
-            let (packed, by_lane) = (F::columns(&rows), columns_by_lane::<F>(&rows));
-            for k in 0..4 {
+            let columns = F::columns(&rows);
+            for (k, column) in columns.iter().enumerate() {
                 for i in 0..F::WIDTH {
-                    assert_eq!(
-                        packed[k].get(i),
-                        (10 * i + k) as f32,
-                        "lane {i}, column {k}"
-                    );
-                    assert_eq!(packed[k].get(i), by_lane[k].get(i));
+                    let want = (10 * i + k) as f32;
+                    assert_eq!(column.get(i), want, "lane {i}, column {k}");
                 }
             }
         }

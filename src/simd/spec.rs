@@ -59,7 +59,7 @@ impl<F: Float> Spec<F> {
     pub fn from_fn(f: impl FnMut(usize) -> Vec4) -> Spec<F> {
         // Whole vectors from an array, not lane by lane: a lane written into a vector in
         // memory and the vector read back stalls store forwarding.
-        Spec(super::columns::<F>(&Lanes::from_fn(f)))
+        Spec(F::columns(&Lanes::from_fn(f)))
     }
 
     /// The hero wavelength's values.

@@ -8,10 +8,11 @@
 //! 1 nm cells the visible pdf is constant on, so the whole factor is linear on each cell:
 //! one table of the factor at both ends of each cell gives it with one look-up and one
 //! interpolation per lane, where the film otherwise looks up the pdf's weight and the
-//! colour-matching functions apart and converts XYZ after summing (what
-//! [`super::xyz_estimate`] and [`crate::color::xyz_to_linear_srgb`] still do for tests and
-//! tools). The table is built in f64, so it rounds once where the separate steps round at
-//! each.
+//! colour-matching functions apart and converts XYZ after summing ([`super::xyz_estimate`]
+//! and [`crate::color::xyz_to_linear_srgb`], which the tests keep as the reference). The
+//! table takes M·x̄ȳz̄ in f32, as the film did, and the weight and normalisation in f64:
+//! a sample now rounds at fewer steps, so images differ from the old film's in the last
+//! bits.
 
 use std::sync::OnceLock;
 
@@ -42,7 +43,6 @@ impl RgbWeights {
 
     fn build(w: Wavelengths) -> RgbWeights {
         let norm = LAMBDA_RANGE as f64 / CIE_Y_INTEGRAL as f64;
-        // M is linear, so M·x̄ȳz̄ is exact enough in f32 and then scaled in f64.
         let rgb = |l: f32| xyz_to_linear_srgb(cie_xyz(l)).as_dvec3();
         let cells = (0..CELLS)
             .map(|i| {
