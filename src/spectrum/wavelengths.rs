@@ -17,7 +17,7 @@
 //!   keeps every wavelength possible (spectral output, UV-lit scenes) and bounds r̄ḡb̄/p,
 //!   so no lane's weight can blow up.
 
-use crate::simd::{map4, Float, Mask, Spec};
+use crate::simd::{map4, Float, Lanes, Spec};
 use glam::Vec4;
 use std::sync::OnceLock;
 
@@ -47,19 +47,21 @@ pub enum Wavelengths {
 /// 1 nm cells of the visible pdf over [MIN, MAX).
 const CELLS: usize = LAMBDA_RANGE as usize;
 
-/// Buckets of the guide table: the CDF search starts at the cell where its bucket does.
-const GUIDE: usize = 1024;
+/// Buckets of the guide table: fine enough that no bucket holds more than one interior
+/// cell edge (a test checks it; the smallest cell holds 1/3,498 of the CDF), so the cell of
+/// any u is its bucket's first cell or the one after it.
+const GUIDE: usize = 4096;
 
 /// The visible pdf: a density per 1 nm cell, its CDF at the cell edges, and a guide that
-/// turns the CDF search into a look-up and a step or two (a binary search's unpredictable
-/// branches cost a fifth of a Cornell box sample).
+/// turns the CDF search into a look-up and one branch-free step (a binary search's
+/// unpredictable branches cost a fifth of a Cornell box sample, a stepping loop's a few
+/// per cent).
 struct VisibleTable {
-    /// p on cell i = [MIN + i, MIN + i + 1), in nm⁻¹.
-    density: [f32; CELLS],
+    /// (CDF at its start, p) of cell i = [MIN + i, MIN + i + 1), p in nm⁻¹; the entry
+    /// `CELLS` is (1, 0): the end of the last cell. One load gives both.
+    cells: [[f32; 2]; CELLS + 1],
     /// 1/(p·Δ) on cell i: the film's lane weight.
     weight: [f32; CELLS],
-    /// ∫ p up to the start of cell i; `cdf[CELLS]` = 1 exactly.
-    cdf: [f32; CELLS + 1],
     /// The cell that holds u = j/GUIDE.
     guide: [u16; GUIDE],
 }
@@ -78,22 +80,18 @@ fn visible_table() -> &'static VisibleTable {
         let peak = shape.iter().cloned().fold(0.0, f64::max);
         let weight: Vec<f64> = shape.iter().map(|s| s + VISIBLE_FLOOR * peak).collect();
         let total: f64 = weight.iter().sum();
-        let mut density = [0.0; CELLS];
-        let mut cdf = [0.0; CELLS + 1];
+        let mut cells = [[1.0, 0.0]; CELLS + 1];
         let mut acc = 0.0;
-        for i in 0..CELLS {
-            density[i] = (weight[i] / total) as f32;
-            cdf[i] = acc as f32;
-            acc += weight[i] / total;
+        for (cell, w) in cells.iter_mut().zip(&weight) {
+            *cell = [acc as f32, (w / total) as f32];
+            acc += w / total;
         }
-        cdf[CELLS] = 1.0;
-        let cell_of = |u: f32| (cdf.partition_point(|&c| c <= u).max(1) - 1).min(CELLS - 1);
+        let cell_of = |u: f32| (cells.partition_point(|c| c[0] <= u).max(1) - 1).min(CELLS - 1);
         let guide = std::array::from_fn(|j| cell_of(j as f32 / GUIDE as f32) as u16);
-        let weight = density.map(|p| 1.0 / (p * LAMBDA_RANGE));
+        let weight = std::array::from_fn(|i| 1.0 / (cells[i][1] * LAMBDA_RANGE));
         VisibleTable {
-            density,
+            cells,
             weight,
-            cdf,
             guide,
         }
     })
@@ -109,37 +107,36 @@ fn cell(lambda: f32) -> Option<usize> {
 }
 
 impl VisibleTable {
-    /// The wavelength at CDF position `u` ∈ [0, 1).
-    #[inline]
-    fn sample(&self, u: f32) -> f32 {
-        self.sample_in_bucket((u * GUIDE as f32) as usize, u)
-    }
-
-    /// [`Self::sample`] with u's guide bucket ⌊u·GUIDE⌋ already computed (4 at a time).
-    #[inline]
-    fn sample_in_bucket(&self, bucket: usize, u: f32) -> f32 {
-        // The bucket's first cell holds u's bucket start, so the cell holding u is there
-        // or after it: step while the next cell starts at or below u.
-        let mut i = self.guide[bucket.min(GUIDE - 1)] as usize;
-        while i + 1 < CELLS && self.cdf[i + 1] <= u {
-            i += 1;
-        }
-        let t = ((u - self.cdf[i]) / self.density[i]).clamp(0.0, 1.0);
-        (LAMBDA_MIN + i as f32 + t).clamp(LAMBDA_MIN, LAMBDA_BELOW_MAX)
+    /// The wavelengths at CDF positions `u` ∈ [0, 1) of W paths. The cell is u's guide
+    /// entry or the next one; within it the CDF is linear, so λ = MIN + i + (u − cdfᵢ)/pᵢ.
+    /// Every width runs the same arithmetic (the scalar [`Wavelengths::sample`] is width 1).
+    #[inline(always)]
+    fn sample_w<F: Float>(&self, u: F) -> F {
+        let bucket = (u * F::splat(GUIDE as f32)).to_index();
+        let cell: F::Arr<usize> = Lanes::from_fn(|l| {
+            let i = self.guide[(bucket[l] as usize).min(GUIDE - 1)] as usize;
+            (i + (self.cells[i + 1][0] <= u.get(l)) as usize).min(CELLS - 1)
+        });
+        let rows: F::Arr<[f32; 2]> = Lanes::from_fn(|l| self.cells[cell[l]]);
+        let (cdf, p) = (F::from_fn(|l| rows[l][0]), F::from_fn(|l| rows[l][1]));
+        let t = ((u - cdf) / p).clamp(0.0, 1.0);
+        let start = F::splat(LAMBDA_MIN) + F::from_fn(|l| cell[l] as f32);
+        (start + t).clamp(LAMBDA_MIN, LAMBDA_BELOW_MAX)
     }
 
     /// p(λ), 0 outside [MIN, MAX).
     #[inline]
     fn pdf(&self, lambda: f32) -> f32 {
-        cell(lambda).map_or(0.0, |i| self.density[i])
+        cell(lambda).map_or(0.0, |i| self.cells[i][1])
     }
 
-    /// The CDF at λ: the u that [`Self::sample`] maps to λ.
+    /// The CDF at λ: the u that [`Self::sample_w`] maps to λ.
     #[inline]
     fn cdf(&self, lambda: f32) -> f32 {
         let f = (lambda - LAMBDA_MIN).clamp(0.0, LAMBDA_RANGE);
         let i = (f as usize).min(CELLS - 1);
-        self.cdf[i] + (f - i as f32) * self.density[i]
+        let [cdf, p] = self.cells[i];
+        cdf + (f - i as f32) * p
     }
 }
 
@@ -149,7 +146,7 @@ impl Wavelengths {
     pub fn sample(self, u: f32) -> f32 {
         match self {
             Wavelengths::Uniform => to_lambda(u),
-            Wavelengths::Visible => visible_table().sample(u),
+            Wavelengths::Visible => visible_table().sample_w(u),
         }
     }
 
@@ -254,7 +251,7 @@ fn to_lambda<F: Float>(u: F) -> F {
 
 /// The HWSS wavelengths of the W paths of `m` from their uniforms `u`, drawn with the pdf
 /// `w`: the hero at CDF position `u`, the others a quarter of the CDF apart, wrapped (the
-/// other paths' lanes are left meaningless: a table search per lane is not free).
+/// other paths' lanes hold MIN).
 #[inline(always)]
 pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
     let one = F::splat(1.0);
@@ -264,13 +261,11 @@ pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
         let v = F::select(v.ge(one), v - one, v);
         match w {
             Wavelengths::Uniform => to_lambda(v),
-            Wavelengths::Visible => {
-                let bucket = (v * F::splat(GUIDE as f32)).to_index();
-                F::from_fn(|i| match m.get(i) {
-                    true => table.sample_in_bucket(bucket[i] as usize, v.get(i)),
-                    false => LAMBDA_MIN,
-                })
-            }
+            Wavelengths::Visible => F::select(
+                m,
+                table.sample_w(F::select(m, v, F::splat(0.0))),
+                F::splat(LAMBDA_MIN),
+            ),
         }
     };
     Spec([lane(0.0), lane(1.0), lane(2.0), lane(3.0)])
@@ -282,10 +277,11 @@ pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
 pub fn mono<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
     match w {
         Wavelengths::Uniform => Spec::broadcast(to_lambda(u)),
-        _ => Spec::broadcast(F::from_fn(|i| match m.get(i) {
-            true => w.sample(u.get(i)),
-            false => LAMBDA_MIN,
-        })),
+        Wavelengths::Visible => Spec::broadcast(F::select(
+            m,
+            visible_table().sample_w(F::select(m, u, F::splat(0.0))),
+            F::splat(LAMBDA_MIN),
+        )),
     }
 }
 
@@ -344,6 +340,57 @@ mod tests {
         for &u in &[0.0, 0.123, 0.5, 0.987] {
             let w = SampledWavelengths::sample_hwss(u);
             assert!((Wavelengths::Uniform.cdf(w.hero()) - u).abs() < 1e-6);
+        }
+    }
+
+    /// Each guide bucket [j/G, (j+1)/G) holds at most one interior cell edge: what lets
+    /// [`VisibleTable::sample_w`] take one step instead of a search.
+    #[test]
+    fn no_guide_bucket_holds_two_cell_edges() {
+        let t = visible_table();
+        for j in 0..GUIDE {
+            let (a, b) = (j as f32 / GUIDE as f32, (j + 1) as f32 / GUIDE as f32);
+            let inside = t.cells.iter().filter(|c| a < c[0] && c[0] < b).count();
+            assert!(inside <= 1, "bucket {j} holds {inside} cell edges");
+        }
+    }
+
+    /// The visible sampler finds the cell a full search finds (at every cell edge, a float
+    /// either side of it, and at random u), and every width gives the scalar's bits.
+    #[test]
+    fn visible_sampling_matches_a_full_search() {
+        use crate::simd::{F4, F8};
+        let t = visible_table();
+        let searched = |u: f32| {
+            let i = (t.cells.partition_point(|c| c[0] <= u).max(1) - 1).min(CELLS - 1);
+            let [cdf, p] = t.cells[i];
+            (LAMBDA_MIN + i as f32 + ((u - cdf) / p).clamp(0.0, 1.0))
+                .clamp(LAMBDA_MIN, LAMBDA_BELOW_MAX)
+        };
+        let mut us: Vec<f32> = t.cells[..CELLS]
+            .iter()
+            .flat_map(|c| [c[0].next_down(), c[0], c[0].next_up()])
+            .filter(|u| (0.0..1.0).contains(u))
+            .collect();
+        let mut x = 0x9e37_79b9_u32;
+        us.extend((0..100_000).map(|_| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x >> 8) as f32 / (1 << 24) as f32
+        }));
+        us.push(1.0f32.next_down());
+        for chunk in us.chunks_exact(8) {
+            let w4 = t.sample_w(F4::from_fn(|l| chunk[l]));
+            let w8 = t.sample_w(F8::from_fn(|l| chunk[l]));
+            for (l, &u) in chunk.iter().enumerate() {
+                let want = searched(u);
+                assert_eq!(t.sample_w(u).to_bits(), want.to_bits(), "u = {u}");
+                assert_eq!(w8.get(l).to_bits(), want.to_bits(), "width 8, u = {u}");
+                if l < 4 {
+                    assert_eq!(w4.get(l).to_bits(), want.to_bits(), "width 4, u = {u}");
+                }
+            }
         }
     }
 
