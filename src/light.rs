@@ -499,15 +499,14 @@ impl Lights {
         if self.pmf.is_empty() {
             return s;
         }
-        let mut pick: F::Arr<usize> = Lanes::splat(0);
-        for i in active.iter() {
-            pick[i] = self.pick(u[0].get(i));
-        }
+        // Every lane picks, and a lane's row is chosen by index rather than by a branch on
+        // the mask (fewer instructions and branches than lane by lane under the mask).
+        let pick: F::Arr<usize> = Lanes::from_fn(|i| self.pick(u[0].get(i)));
         if !self.triangles.is_empty() {
             // Per path: the triangle (by power), if it picked one.
-            let rows: F::Arr<NeeRows> = Lanes::from_fn(|i| match active.get(i) {
-                true => self.nee_rows.get(pick[i]).copied().unwrap_or(NO_TRIANGLE),
-                false => NO_TRIANGLE,
+            let rows: F::Arr<NeeRows> = Lanes::from_fn(|i| {
+                let row = self.nee_rows.get(pick[i]).unwrap_or(&NO_TRIANGLE);
+                *[&NO_TRIANGLE, row][active.get(i) as usize]
             });
             self.sample_triangles(&mut s, &rows, p, u);
         }

@@ -369,8 +369,8 @@ impl<F: Float> Paths<F> {
                 }
             }
         }
-        for i in s.iter() {
-            self.depth[i] += 1;
+        for i in 0..F::WIDTH {
+            self.depth[i] += s.get(i) as i32;
         }
         let wo = -self.dir;
         self.emitted(scene, hit, s, p, ng, wo);
