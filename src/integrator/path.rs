@@ -354,12 +354,14 @@ impl<F: Float> Paths<F> {
         }
         let p = self.org + self.dir * hit.t;
         let ng = hit.ng.normalize();
+        // Lane i's geometry; a lane outside `s` (a miss) reads the last one, whatever it
+        // is, so that the per-lane tests below need no branch on the mask.
+        let last_geometry = scene.geometries.len() - 1;
+        let geometry = |i: usize| &scene.geometries[(hit.geom[i] as usize).min(last_geometry)];
 
         // An index-matched medium boundary: cross it without scattering.
         if MEDIA {
-            let null = s & F::Mask::from_fn(|i| {
-                s.get(i) && scene.geometries[hit.geom[i] as usize].is_null_interface()
-            });
+            let null = s & F::Mask::from_fn(|i| geometry(i).is_null_interface());
             if null.any() {
                 census::record(Part::Cross, null);
                 self.cross(scene, hit, null, p, ng);
@@ -378,16 +380,11 @@ impl<F: Float> Paths<F> {
         // Paths at their last segment, or on a surface without a material, end here.
         let mut mat = <F::Arr<u32> as Lanes<u32>>::splat(0);
         let ends = F::Mask::from_fn(|i| {
-            s.get(i) && {
-                let last = opts.max_depth >= 0 && self.depth[i] >= opts.max_depth;
-                match scene.geometries[hit.geom[i] as usize].material {
-                    Some(m) if !last => {
-                        mat[i] = m;
-                        false
-                    }
-                    _ => true,
-                }
-            }
+            let last = opts.max_depth >= 0 && self.depth[i] >= opts.max_depth;
+            let material = geometry(i).material;
+            let shades = s.get(i) & !last & material.is_some();
+            mat[i] = material.unwrap_or(0) * shades as u32;
+            s.get(i) & !shades
         });
         self.kill(ends);
         s &= !ends;

@@ -121,7 +121,7 @@ impl<F: Float> Shadows<F> {
     ) -> (F::Mask, Spec<F>) {
         let m = self.active;
         let seg = F::select(hit.valid, hit.t, self.tfar);
-        let inside = m & F::Mask::from_fn(|i| m.get(i) && self.medium[i] != NO_MEDIUM);
+        let inside = m & F::Mask::from_fn(|i| self.medium[i] != NO_MEDIUM);
         if inside.any() {
             let (st, ss) = coefficients(scene, inside, &self.medium, &self.lambda);
             let len = seg * self.dir.length();
