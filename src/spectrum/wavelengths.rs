@@ -251,7 +251,7 @@ fn to_lambda<F: Float>(u: F) -> F {
 
 /// The HWSS wavelengths of the W paths of `m` from their uniforms `u`, drawn with the pdf
 /// `w`: the hero at CDF position `u`, the others a quarter of the CDF apart, wrapped (the
-/// other paths' lanes hold MIN).
+/// other paths' lanes are left meaningless; under the visible pdf they hold MIN).
 #[inline(always)]
 pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
     let one = F::splat(1.0);
