@@ -14,7 +14,7 @@
 //! Fields are separated by commas (or, on a line with no comma, by whitespace). Without a
 //! header the value columns are named `"1"`, `"2"`, ….
 
-use super::{LAMBDA_MAX, LAMBDA_MIN};
+use super::{LAMBDA_MIN, NM_CELLS};
 use crate::error::{Detail, Error};
 use crate::simd::{Float, Lanes, Mask, F4, M4};
 use crate::Result;
@@ -29,16 +29,13 @@ pub struct Tabulated {
     /// `(first wavelength, 1/step)` when the samples are evenly spaced, so that evaluation
     /// is a direct index instead of a binary search (all CIE and most measured tables).
     uniform: Option<(f32, f32)>,
-    /// The curve at every integer nm of [`LAMBDA_MIN`, `LAMBDA_MAX`] when every sample
+    /// The curve at every integer nm of [MIN, MAX] when every sample
     /// lies on an integer nm (most measured tables): the same piecewise-linear function
     /// (each cell of 1 nm lies within one of its pieces), evaluated with one index and no
     /// division, the renderer's hot path. Cell k holds the values at both its ends, so a
     /// lane reads one pair.
     nm: Option<Box<[[f32; 2]]>>,
 }
-
-/// Cells of the integer-nm table.
-const NM_CELLS: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize;
 
 impl Tabulated {
     /// Checks the table: at least one sample, as many values as wavelengths, finite

@@ -53,6 +53,9 @@ pub const LAMBDA_MIN: f32 = 360.0;
 pub const LAMBDA_MAX: f32 = 830.0;
 /// `LAMBDA_MAX − LAMBDA_MIN`, the Δ of hero wavelength sampling.
 pub const LAMBDA_RANGE: f32 = LAMBDA_MAX - LAMBDA_MIN;
+/// The 1 nm cells of [`LAMBDA_MIN`, `LAMBDA_MAX`): what the integer-nm tables (tabulated
+/// curves, the visible pdf, the film's colour weights) are indexed by.
+const NM_CELLS: usize = LAMBDA_RANGE as usize;
 
 /// FWHM = 2√(2 ln 2) σ for a Gaussian.
 const FWHM_PER_SIGMA: f32 = 2.354_82;

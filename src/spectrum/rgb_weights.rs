@@ -21,8 +21,8 @@ use glam::{DVec3, Vec3, Vec4};
 use super::{cie_xyz, Wavelengths, CIE_Y_INTEGRAL, LAMBDA_MIN, LAMBDA_RANGE};
 use crate::color::xyz_to_linear_srgb;
 
-/// 1 nm cells over [MIN, MAX).
-const CELLS: usize = LAMBDA_RANGE as usize;
+/// The table's cells: 1 nm over [MIN, MAX).
+const CELLS: usize = super::NM_CELLS;
 
 /// The factor w(λ) · M · x̄ȳz̄(λ) · Δ / ∫ȳ at both ends of every 1 nm cell (the fourth
 /// component is 0).
