@@ -252,9 +252,9 @@ fn masked_lanes_never_contribute_and_a_lone_lane_equals_the_single_ray_path() {
         ];
         for (width, usable) in patterns {
             for lockstep in [false, true] {
-                let (results, lambdas, occupancy) = match width {
-                    4 => run_packets::<F4>(&scene, &po, usable, lockstep, n),
-                    _ => run_packets::<F8>(&scene, &po, usable, lockstep, n),
+                let (results, lambdas, occupancy, _) = match width {
+                    4 => run_packets::<F4>(&scene, &po, usable, lockstep, true, n),
+                    _ => run_packets::<F8>(&scene, &po, usable, lockstep, true, n),
                 };
                 let what = format!("{name}, {width} lanes {usable:b}, lockstep {lockstep}");
                 for k in 0..n as usize {
@@ -285,17 +285,20 @@ fn masked_lanes_never_contribute_and_a_lone_lane_equals_the_single_ray_path() {
 
 /// Runs pixel samples 0..n (sample index 0 of pixels 0..n) through a tracer of width `F`
 /// that may use only the lanes of `usable`: the results and wavelengths per sample (plus
-/// a sentinel slot that nothing may write), and the lane occupancy.
+/// a sentinel slot that nothing may write), and the lane occupancy; `sort`: paths in media
+/// gathered into the same groups.
 fn run_packets<F: Width>(
     scene: &Scene,
     po: &PathOptions,
     usable: u32,
     lockstep: bool,
+    sort: bool,
     n: u32,
-) -> (Vec<Vec4>, Vec<Vec4>, f64) {
+) -> (Vec<Vec4>, Vec<Vec4>, f64, f64) {
     let mut tracer = Tracer::<F>::default();
     tracer.usable = usable;
     tracer.lockstep = lockstep;
+    tracer.sort = sort;
     let mut results = vec![Vec4::ZERO; n as usize + 1];
     let mut lambdas = vec![Vec4::ZERO; n as usize + 1];
     let w = scene.camera.width;
@@ -313,7 +316,45 @@ fn run_packets<F: Width>(
         tracer.run::<false>(scene, po, SEED, &mut work, r, l, &mut stats);
     }
     let occupancy = tracer.lanes_used as f64 / tracer.lanes_total as f64;
-    (results, lambdas, occupancy)
+    let medium = tracer.medium_lanes_used as f64 / tracer.medium_lanes_total as f64;
+    (results, lambdas, occupancy, medium)
+}
+
+#[test]
+fn gathering_the_paths_in_media_changes_no_result_and_fills_the_lanes() {
+    for file in ["fluorescent-volume-440nm.toml", "fluorescent-slab.toml"] {
+        let mut scene = scene_file(file);
+        scene.set_resolution(32, 32);
+        let po = path_opts(Dispersion::Drop);
+        let n = 1024;
+        for width in [4, 8] {
+            let run = |sort| match width {
+                4 => run_packets::<F4>(&scene, &po, u32::MAX, false, sort, n),
+                _ => run_packets::<F8>(&scene, &po, u32::MAX, false, sort, n),
+            };
+            let ((a, la, _, apart), (b, lb, _, together)) = (run(false), run(true));
+            let bits = |v: &[Vec4]| {
+                v.iter()
+                    .map(|x| x.to_array().map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(
+                bits(&a),
+                bits(&b),
+                "{file}, width {width}: sorting changed a result"
+            );
+            assert_eq!(
+                la, lb,
+                "{file}, width {width}: sorting changed a wavelength"
+            );
+            // The share of busy lanes in the group steps that track through a medium.
+            assert!(
+                together > apart + 0.2,
+                "{file}, width {width}: medium lanes {together:.3} busy gathered, {apart:.3} not"
+            );
+            eprintln!("{file}, width {width}: medium lanes busy {apart:.3} → {together:.3}");
+        }
+    }
 }
 
 /// A glass slab of index `ior` in a white furnace (a box emitting 1 inwards). A lossless

@@ -254,6 +254,11 @@ impl<F: Float> Paths<F> {
         self.slot[i] = p.slot[0];
     }
 
+    /// Whether path `i` is inside a medium.
+    pub fn in_medium(&self, i: usize) -> bool {
+        self.medium[i] != NO_MEDIUM
+    }
+
     /// Ends the paths in `m`.
     #[inline(always)]
     fn kill(&mut self, m: F::Mask) {

@@ -263,6 +263,10 @@ pub struct Tracer<F: Width> {
     pub lanes_used: u64,
     /// Lanes of all packets traced (W per query, W > 1).
     pub lanes_total: u64,
+    /// Paths that started a step inside a medium (W > 1, scenes with media), and W for
+    /// each group step that had any: how busy the medium's parts of the step run.
+    pub medium_lanes_used: u64,
+    pub medium_lanes_total: u64,
     /// Refill a group's lanes only when every one of them is free (the samples of a
     /// packet run until the longest path ends, as Mitsuba 3 runs them), to measure what
     /// refilling buys.
@@ -272,6 +276,9 @@ pub struct Tracer<F: Width> {
     pub usable: u32,
     /// Where every traced ray is recorded, if anywhere (`stokes bench limit`).
     pub log: Option<Box<RayLog>>,
+    /// In scenes with media, gather the paths that start a round inside a medium into as
+    /// few groups as they fill ([`Self::sort_lanes`]); a test hook to turn it off.
+    pub sort: bool,
 }
 
 impl<F: Width> Default for Tracer<F> {
@@ -282,9 +289,12 @@ impl<F: Width> Default for Tracer<F> {
             shadow_rays: accel::RayStream::default(),
             lanes_used: 0,
             lanes_total: 0,
+            medium_lanes_used: 0,
+            medium_lanes_total: 0,
             lockstep: false,
             usable: u32::MAX,
             log: None,
+            sort: true,
         }
     }
 }
@@ -308,10 +318,19 @@ impl<F: Width> Tracer<F> {
         lambdas: &mut [Vec4],
         stats: &mut PathStats,
     ) {
+        let sort = MEDIA && self.sort && F::GROUPS > 1 && !self.lockstep;
         loop {
+            if sort {
+                for k in 0..F::GROUPS {
+                    self.refill(k, scene, opts, seed, work, lambdas);
+                }
+                self.sort_lanes();
+            }
             let mut any = false;
             for k in 0..F::GROUPS {
-                self.refill(k, scene, opts, seed, work, lambdas);
+                if !sort {
+                    self.refill(k, scene, opts, seed, work, lambdas);
+                }
                 let live = self.groups[k].paths.alive;
                 self.groups[k].live = live;
                 if live.any() {
@@ -332,6 +351,60 @@ impl<F: Width> Tracer<F> {
                 }
             }
         }
+    }
+
+    /// Moves paths between groups so that those inside a medium fill as few groups as
+    /// they can: a medium's parts of the step then run with their lanes busy. The groups
+    /// that hold the most such paths keep them and take the others', lane for lane, so a
+    /// path moves only when it has entered or left a medium. A path computes the same
+    /// bits in any lane, so the image does not change.
+    fn sort_lanes(&mut self) {
+        let w = F::WIDTH;
+        let usable = F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
+        let inside =
+            |g: &Group<F>| g.paths.alive & usable & F::Mask::from_fn(|i| g.paths.in_medium(i));
+        let mut counts = [0u32; PATHS_IN_FLIGHT];
+        for (c, g) in counts.iter_mut().zip(&self.groups) {
+            *c = inside(g).bits().count_ones();
+        }
+        let counts = &counts[..F::GROUPS];
+        let (n, capacity) = (counts.iter().sum::<u32>(), usable.bits().count_ones());
+        if n == 0 || capacity == 0 {
+            return;
+        }
+        // Stable: among equal counts the lower group keeps its paths, round after round.
+        let mut order: [usize; PATHS_IN_FLIGHT] = std::array::from_fn(|k| k);
+        let order = &mut order[..F::GROUPS];
+        order.sort_by_key(|&k| std::cmp::Reverse(counts[k]));
+        let (kept, rest) = order.split_at((n.div_ceil(capacity) as usize).min(F::GROUPS));
+        let (mut holes, mut movers) = ([0usize; PATHS_IN_FLIGHT], [0usize; PATHS_IN_FLIGHT]);
+        let (mut h, mut m) = (0, 0);
+        for &k in kept {
+            for i in (usable & !inside(&self.groups[k])).iter() {
+                holes[h] = k * w + i;
+                h += 1;
+            }
+        }
+        for &k in rest {
+            for i in inside(&self.groups[k]).iter() {
+                movers[m] = k * w + i;
+                m += 1;
+            }
+        }
+        for (&a, &b) in holes[..h].iter().zip(&movers[..m]) {
+            self.swap_lanes(a, b);
+        }
+    }
+
+    /// Exchanges the paths of global lanes `a` and `b` (group · W + lane) of two groups.
+    fn swap_lanes(&mut self, a: usize, b: usize) {
+        let w = F::WIDTH;
+        let (pa, pb) = (
+            self.groups[a / w].paths.path(a % w),
+            self.groups[b / w].paths.path(b % w),
+        );
+        self.groups[a / w].paths.set_path(a % w, &pb);
+        self.groups[b / w].paths.set_path(b % w, &pa);
     }
 
     /// Gives every free lane a path: a waiting split-off path, else the next sample of
@@ -446,6 +519,11 @@ impl<F: Width> Tracer<F> {
         if F::WIDTH > 1 {
             self.lanes_used += live.bits().count_ones() as u64;
             self.lanes_total += F::WIDTH as u64;
+            if MEDIA {
+                let inside = live & F::Mask::from_fn(|i| paths.in_medium(i));
+                self.medium_lanes_used += inside.bits().count_ones() as u64;
+                self.medium_lanes_total += (inside.any() as u64) * F::WIDTH as u64;
+            }
         }
         // `shadows` is empty: the last round's were traced and cleared.
         paths.step::<MEDIA>(scene, opts, &hits, stats, shadows, &mut self.pending);
