@@ -490,6 +490,9 @@ pub struct RenderStats {
     pub ray_mode: &'static str,
     /// The share of packet lanes that carried a ray (packet modes).
     pub packet_lane_occupancy: Option<f64>,
+    /// The share of busy lanes in the packet steps that started with a path inside a
+    /// medium (packet modes, scenes with media).
+    pub packet_medium_lane_occupancy: Option<f64>,
     /// `split` or `drop`.
     pub dispersion: &'static str,
     /// Samples dropped as NaN or infinite.
@@ -522,6 +525,7 @@ impl RenderStats {
             spectral: header.method.spectral.name(),
             ray_mode: header.method.rays.name(),
             packet_lane_occupancy: r.stats.occupancy(),
+            packet_medium_lane_occupancy: r.stats.medium_occupancy(),
             dispersion: header.method.dispersion.name(),
             nonfinite_samples: r.stats.nonfinite,
             seed: first.map_or(0, |r| r.seed),

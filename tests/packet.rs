@@ -562,6 +562,33 @@ fn ray_counts_add_up_over_threads_and_modes_and_occupancy_is_a_share() {
     );
     let o = packet.occupancy().unwrap();
     assert!(o > 0.5 && o < 1.0, "occupancy {o}");
+    assert_eq!(packet.medium_occupancy(), None, "a scene without media");
+}
+
+/// A render reports how busy its packets' medium steps ran, summed over threads: absent
+/// for single rays, and high in packet modes, since the paths inside the medium are
+/// gathered (without gathering, width 4 runs about a third busy here, width 8 a fifth).
+#[test]
+fn a_render_reports_how_busy_the_medium_steps_ran() {
+    use stokes::integrator::render::render;
+    let mut scene = scene_file("fluorescent-volume-440nm.toml");
+    scene.set_resolution(32, 32);
+    for threads in [1, 2] {
+        let run = |rays: Rays| {
+            let o = opts(32, 32, 8, rays, Dispersion::Split)
+                .threads(threads)
+                .opts;
+            render(&scene, &o, &|| {}).unwrap().stats
+        };
+        assert_eq!(run(Rays::Single).medium_occupancy(), None);
+        for (rays, least) in [(Rays::Packet, 0.7), (Rays::Packet8, 0.5)] {
+            let stats = run(rays);
+            let o = stats.medium_occupancy().unwrap();
+            eprintln!("{threads} threads, {rays:?}: medium lanes {o:.3} busy");
+            assert!(o > least && o <= 1.0, "{threads} threads, {rays:?}: {o}");
+            assert!(stats.medium_lanes_total > 0);
+        }
+    }
 }
 
 /// Every width reports the barycentrics of its hits (Embree's `u`, `v`) as single rays

@@ -49,6 +49,10 @@ pub struct PathStats {
     pub lanes_used: u64,
     /// Packet mode: lanes of all 4-wide queries (4 per query).
     pub lanes_total: u64,
+    /// Packet modes, scenes with media: paths that started a step inside a medium, and
+    /// the lanes of the packets that had any (how busy the medium's parts run).
+    pub medium_lanes_used: u64,
+    pub medium_lanes_total: u64,
 }
 
 impl PathStats {
@@ -58,11 +62,20 @@ impl PathStats {
         self.nonfinite += o.nonfinite;
         self.lanes_used += o.lanes_used;
         self.lanes_total += o.lanes_total;
+        self.medium_lanes_used += o.medium_lanes_used;
+        self.medium_lanes_total += o.medium_lanes_total;
     }
 
     /// The share of packet lanes that carried a ray (`None` without packets).
     pub fn occupancy(&self) -> Option<f64> {
         (self.lanes_total > 0).then(|| self.lanes_used as f64 / self.lanes_total as f64)
+    }
+
+    /// The share of busy lanes in the packet steps that started with a path inside a
+    /// medium (`None` without packets or without such steps).
+    pub fn medium_occupancy(&self) -> Option<f64> {
+        (self.medium_lanes_total > 0)
+            .then(|| self.medium_lanes_used as f64 / self.medium_lanes_total as f64)
     }
 }
 

@@ -52,6 +52,10 @@ pub struct RenderBenchResult {
     /// Packet modes: the share of packet lanes that carried a ray.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub occupancy: Option<f64>,
+    /// Packet modes, scenes with media: the share of busy lanes in the steps that
+    /// started with a path inside a medium.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub medium_occupancy: Option<f64>,
 }
 
 /// The figures of one scene.
@@ -94,7 +98,7 @@ pub fn bench_render(
                depth: i32,
                (rays, layout): (Rays, Layout),
                spp: u32|
-     -> crate::Result<(f64, f64, Option<f64>)> {
+     -> crate::Result<(f64, f64, Option<f64>, Option<f64>)> {
         let o = RenderOptions {
             spp,
             max_depth: depth,
@@ -112,6 +116,7 @@ pub fn bench_render(
             samples / r.seconds,
             r.stats.rays as f64 / samples,
             r.stats.occupancy(),
+            r.stats.medium_occupancy(),
         ))
     };
     let combos: Vec<(usize, (Rays, Layout))> = opts
@@ -121,17 +126,17 @@ pub fn bench_render(
         .collect();
     let mut results = Vec::new();
     for &depth in &opts.depths {
-        let (rate, _, _) = run(opts.threads[0], depth, opts.modes[0], 1)?;
+        let (rate, ..) = run(opts.threads[0], depth, opts.modes[0], 1)?;
         let spp = ((rate * opts.seconds / reps as f64) / pixels)
             .round()
             .max(1.0) as u32;
         let mut rates = vec![Vec::new(); combos.len()];
-        let mut seen = vec![(0.0, None); combos.len()];
+        let mut seen = vec![(0.0, None, None); combos.len()];
         for _ in 0..reps {
             for (c, &(threads, mode)) in combos.iter().enumerate() {
-                let (r, rps, occ) = run(threads, depth, mode, spp)?;
+                let (r, rps, occ, medium) = run(threads, depth, mode, spp)?;
                 rates[c].push(r);
-                seen[c] = (rps, occ);
+                seen[c] = (rps, occ, medium);
             }
         }
         for (c, &(threads, (rays, layout))) in combos.iter().enumerate() {
@@ -144,6 +149,7 @@ pub fn bench_render(
                 spp,
                 rays_per_sample: seen[c].0,
                 occupancy: seen[c].1,
+                medium_occupancy: seen[c].2,
             };
             progress(&res);
             results.push(res);
@@ -167,7 +173,8 @@ fn threads_used(threads: usize) -> usize {
     }
 }
 
-/// A table of the figures with each mode's rate relative to single rays.
+/// A table of the figures with each mode's rate relative to single rays; in scenes with
+/// media, a last column gives how busy the packets' medium steps ran.
 pub fn format_table(report: &RenderBenchReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
@@ -175,7 +182,10 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         "{}: {}x{}, M samples/s (median of the runs)",
         report.scene, report.width, report.height
     );
-    let _ = writeln!(
+    let media = report.results.iter().any(|r| r.medium_occupancy.is_some());
+    let share =
+        |o: Option<f64>| o.map_or_else(|| "-".to_string(), |o| format!("{:.0}%", 100.0 * o));
+    let _ = write!(
         s,
         "{:>7} {:>9} {:>14} {:>11} {:>11} {:>9} {:>9} {:>11}",
         "threads",
@@ -187,6 +197,7 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         "vs single",
         "vs 1st thr."
     );
+    let _ = writeln!(s, "{}", if media { "  medium lanes" } else { "" });
     let fewest = report.results.iter().map(|r| r.threads).min();
     for r in &report.results {
         let single = report
@@ -214,14 +225,12 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         } else {
             r.max_depth.to_string()
         };
-        let lanes = r
-            .occupancy
-            .map_or_else(|| "-".to_string(), |o| format!("{:.0}%", 100.0 * o));
+        let lanes = share(r.occupancy);
         let mode = match (r.rays, r.layout) {
             ("single", _) | (_, "quad") => r.rays.to_string(),
             (rays, layout) => format!("{rays}/{layout}"),
         };
-        let _ = writeln!(
+        let _ = write!(
             s,
             "{:>7} {:>9} {:>14} {:>11.3} {:>11.2} {:>9} {:>9} {:>11}",
             r.threads,
@@ -233,6 +242,10 @@ pub fn format_table(report: &RenderBenchReport) -> String {
             ratio,
             scaling
         );
+        if media {
+            let _ = write!(s, " {:>13}", share(r.medium_occupancy));
+        }
+        s.push('\n');
     }
     s
 }
