@@ -320,6 +320,10 @@ fn run_packets<F: Width>(
     (results, lambdas, occupancy, medium)
 }
 
+/// Gathering the paths inside a medium into the same groups moves paths between lanes
+/// but changes no bit of any sample, and it must fill the medium's steps: their share of
+/// busy lanes rises by more than 0.2 at widths 4 and 8 (measured 0.32 → 0.83 and
+/// 0.20 → 0.63 in the volume, 0.49 → 0.94 and 0.39 → 0.86 in the slab).
 #[test]
 fn gathering_the_paths_in_media_changes_no_result_and_fills_the_lanes() {
     for file in ["fluorescent-volume-440nm.toml", "fluorescent-slab.toml"] {
