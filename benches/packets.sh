@@ -14,7 +14,8 @@
 #    (benches/mitsuba/cbox.py, scalar_spectral and llvm_ad_spectral), alternating, three
 #    rounds; skipped if `import mitsuba` fails.
 # 4. The fluorescent surfaces scene against the same scene with every dye removed (each
-#    fluorescent_diffuse made a diffuse of its reflectance), packet rays, 2 threads.
+#    fluorescent_diffuse made a diffuse of its reflectance), packet rays, 2 threads, in six
+#    alternating rounds.
 # 5. Instructions per pixel sample (callgrind, independent of machine load) for the
 #    Cornell box and the fluorescent volume, packet and single, with this binary and, if
 #    BASE is set, with that commit's (built in a temporary worktree).
@@ -79,10 +80,25 @@ echo "== 4. fluorescence's cost"
 sed -e 's/type = "fluorescent_diffuse"/type = "diffuse"/' -e '/^dye = /d' -e '/^matrix = /d' \
     scenes/fluorescent-surfaces.toml > scenes/.no-dyes.toml
 trap 'rm -f scenes/.no-dyes.toml' EXIT
-for s in scenes/fluorescent-surfaces.toml scenes/.no-dyes.toml; do
-    $B bench render "$s" --rays packet --max-depth -1 --threads 2 --res 256x256 --seconds 4 --repetitions 5 \
-        | tail -1 | sed "s|^|$s |"
-done | tee "$out/fluorescence-cost.txt"
+# Alternating rounds, so that the host's load drifts over both scenes alike; the cost ratio
+# is the dyes-free median over the dyed median (time per sample with dyes / without).
+for round in 1 2 3 4 5 6; do
+    for s in scenes/fluorescent-surfaces.toml scenes/.no-dyes.toml; do
+        $B bench render "$s" --rays packet --max-depth -1 --threads 2 --res 256x256 --seconds 2 \
+            --repetitions 1 --json 2>/dev/null \
+            | python3 -c 'import json,sys; print(sys.argv[1], json.load(sys.stdin)["results"][0]["samples_per_second"])' "$s"
+    done
+done | python3 -c '
+import statistics, sys
+rates = {}
+for line in sys.stdin:
+    s, r = line.split()
+    rates.setdefault(s, []).append(float(r))
+dyed, plain = (statistics.median(v) for v in rates.values())
+for s, v in rates.items():
+    print(f"{s}: median {statistics.median(v) / 1e6:.3f} M samples/s ({min(v) / 1e6:.3f}-{max(v) / 1e6:.3f}, {len(v)} rounds)")
+print(f"cost per sample with dyes / without: {plain / dyed:.3f}")
+' | tee "$out/fluorescence-cost.txt"
 
 fi
 if part 5; then
