@@ -493,6 +493,8 @@ pub struct RenderStats {
     /// The share of busy lanes in the packet steps that started with a path inside a
     /// medium (packet modes, scenes with media).
     pub packet_medium_lane_occupancy: Option<f64>,
+    /// The share of busy lanes in the packet steps that traced camera rays (packet modes).
+    pub packet_camera_lane_occupancy: Option<f64>,
     /// `split` or `drop`.
     pub dispersion: &'static str,
     /// Samples dropped as NaN or infinite.
@@ -526,6 +528,7 @@ impl RenderStats {
             ray_mode: header.method.rays.name(),
             packet_lane_occupancy: r.stats.occupancy(),
             packet_medium_lane_occupancy: r.stats.medium_occupancy(),
+            packet_camera_lane_occupancy: r.stats.camera_occupancy(),
             dispersion: header.method.dispersion.name(),
             nonfinite_samples: r.stats.nonfinite,
             seed: first.map_or(0, |r| r.seed),

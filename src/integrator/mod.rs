@@ -53,6 +53,10 @@ pub struct PathStats {
     /// the lanes of the packets that had any (how busy the medium's parts run).
     pub medium_lanes_used: u64,
     pub medium_lanes_total: u64,
+    /// Packet modes: paths whose camera ray a step traced, and the lanes of the packets
+    /// that traced any (how full the camera packets ran).
+    pub camera_lanes_used: u64,
+    pub camera_lanes_total: u64,
 }
 
 impl PathStats {
@@ -64,6 +68,8 @@ impl PathStats {
         self.lanes_total += o.lanes_total;
         self.medium_lanes_used += o.medium_lanes_used;
         self.medium_lanes_total += o.medium_lanes_total;
+        self.camera_lanes_used += o.camera_lanes_used;
+        self.camera_lanes_total += o.camera_lanes_total;
     }
 
     /// The share of packet lanes that carried a ray (`None` without packets).
@@ -76,6 +82,13 @@ impl PathStats {
     pub fn medium_occupancy(&self) -> Option<f64> {
         (self.medium_lanes_total > 0)
             .then(|| self.medium_lanes_used as f64 / self.medium_lanes_total as f64)
+    }
+
+    /// The share of busy lanes in the packet steps that traced camera rays (`None`
+    /// without packets).
+    pub fn camera_occupancy(&self) -> Option<f64> {
+        (self.camera_lanes_total > 0)
+            .then(|| self.camera_lanes_used as f64 / self.camera_lanes_total as f64)
     }
 }
 

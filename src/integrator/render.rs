@@ -540,6 +540,8 @@ fn pass<F: Width, const MEDIA: bool>(
                 st.lanes_total += std::mem::take(&mut tracer.lanes_total);
                 st.medium_lanes_used += std::mem::take(&mut tracer.medium_lanes_used);
                 st.medium_lanes_total += std::mem::take(&mut tracer.medium_lanes_total);
+                st.camera_lanes_used += std::mem::take(&mut tracer.camera_lanes_used);
+                st.camera_lanes_total += std::mem::take(&mut tracer.camera_lanes_total);
                 for _ in 0..rows {
                     on_row();
                 }

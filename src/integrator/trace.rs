@@ -267,6 +267,10 @@ pub struct Tracer<F: Width> {
     /// each group step that had any: how busy the medium's parts of the step run.
     pub medium_lanes_used: u64,
     pub medium_lanes_total: u64,
+    /// Paths whose camera ray a step traced (W > 1), and W for each group step that
+    /// traced any: how full the camera packets go to Embree.
+    pub camera_lanes_used: u64,
+    pub camera_lanes_total: u64,
     /// Refill a group's lanes only when every one of them is free (the samples of a
     /// packet run until the longest path ends, as Mitsuba 3 runs them), to measure what
     /// refilling buys.
@@ -276,8 +280,9 @@ pub struct Tracer<F: Width> {
     pub usable: u32,
     /// Where every traced ray is recorded, if anywhere (`stokes bench limit`).
     pub log: Option<Box<RayLog>>,
-    /// In scenes with media, gather the paths that start a round inside a medium into as
-    /// few groups as they fill ([`Self::sort_lanes`]); a test hook to turn it off.
+    /// Gather the paths that start a round inside a medium (in scenes with media) or at
+    /// the camera (without) into as few groups as they fill ([`Self::sort_lanes`]); a
+    /// test hook to turn it off.
     pub sort: bool,
 }
 
@@ -291,6 +296,8 @@ impl<F: Width> Default for Tracer<F> {
             lanes_total: 0,
             medium_lanes_used: 0,
             medium_lanes_total: 0,
+            camera_lanes_used: 0,
+            camera_lanes_total: 0,
             lockstep: false,
             usable: u32::MAX,
             log: None,
@@ -318,13 +325,13 @@ impl<F: Width> Tracer<F> {
         lambdas: &mut [Vec4],
         stats: &mut PathStats,
     ) {
-        let sort = MEDIA && self.sort && F::GROUPS > 1 && !self.lockstep;
+        let sort = self.sort && F::GROUPS > 1 && !self.lockstep;
         loop {
             if sort {
                 for k in 0..F::GROUPS {
                     self.refill(k, scene, opts, seed, work, lambdas);
                 }
-                self.sort_lanes();
+                self.sort_lanes::<MEDIA>();
             }
             let mut any = false;
             for k in 0..F::GROUPS {
@@ -353,16 +360,24 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// Moves paths between groups so that those inside a medium fill as few groups as
-    /// they can: a medium's parts of the step then run with their lanes busy. The groups
-    /// that hold the most such paths keep them and take the others', lane for lane, so a
-    /// path moves only when it has entered or left a medium. A path computes the same
-    /// bits in any lane, so the image does not change.
-    fn sort_lanes(&mut self) {
+    /// Moves paths between groups so that those of one kind fill as few groups as they
+    /// can: inside a medium in scenes with media (the medium's parts of the step then run
+    /// with their lanes busy), else about to leave the camera (camera rays then go to
+    /// Embree as full, coherent packets). The groups that hold the most such paths keep
+    /// them and take the others', lane for lane, so a path moves only when its kind
+    /// changes. A path computes the same bits in any lane, so the image does not change.
+    fn sort_lanes<const MEDIA: bool>(&mut self) {
         let w = F::WIDTH;
         let usable = F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
-        let inside =
-            |g: &Group<F>| g.paths.alive & usable & F::Mask::from_fn(|i| g.paths.in_medium(i));
+        let inside = |g: &Group<F>| {
+            g.paths.alive
+                & usable
+                & if MEDIA {
+                    F::Mask::from_fn(|i| g.paths.in_medium(i))
+                } else {
+                    g.paths.at_camera
+                }
+        };
         let mut counts = [0u32; PATHS_IN_FLIGHT];
         for (c, g) in counts.iter_mut().zip(&self.groups) {
             *c = inside(g).bits().count_ones();
@@ -519,6 +534,9 @@ impl<F: Width> Tracer<F> {
         if F::WIDTH > 1 {
             self.lanes_used += live.bits().count_ones() as u64;
             self.lanes_total += F::WIDTH as u64;
+            let camera = live & paths.at_camera;
+            self.camera_lanes_used += camera.bits().count_ones() as u64;
+            self.camera_lanes_total += (camera.any() as u64) * F::WIDTH as u64;
             if MEDIA {
                 let inside = live & F::Mask::from_fn(|i| paths.in_medium(i));
                 self.medium_lanes_used += inside.bits().count_ones() as u64;
