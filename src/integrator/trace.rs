@@ -327,11 +327,18 @@ impl<F: Width> Tracer<F> {
     ) {
         let sort = self.sort && F::GROUPS > 1 && !self.lockstep;
         loop {
-            if sort {
+            if sort && MEDIA {
                 for k in 0..F::GROUPS {
                     self.refill(k, scene, opts, seed, work, lambdas);
                 }
-                self.sort_lanes::<MEDIA>();
+                self.sort_lanes(|g| g.paths.alive & F::Mask::from_fn(|i| g.paths.in_medium(i)));
+            } else if sort {
+                // Free lanes gathered first: the refill then starts its camera paths in
+                // whole groups, and a path moves into a free lane instead of trading.
+                self.sort_lanes(|g| !g.paths.alive);
+                for k in 0..F::GROUPS {
+                    self.refill(k, scene, opts, seed, work, lambdas);
+                }
             }
             let mut any = false;
             for k in 0..F::GROUPS {
@@ -360,48 +367,51 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// Moves paths between groups so that those of one kind fill as few groups as they
-    /// can: inside a medium in scenes with media (the medium's parts of the step then run
-    /// with their lanes busy), else about to leave the camera (camera rays then go to
-    /// Embree as full, coherent packets). The groups that hold the most such paths keep
-    /// them and take the others', lane for lane, so a path moves only when its kind
-    /// changes. A path computes the same bits in any lane, so the image does not change.
-    fn sort_lanes<const MEDIA: bool>(&mut self) {
+    /// Moves paths between groups so that the lanes of `kind` fill as few groups as they
+    /// can: in scenes with media the paths inside a medium (the medium's parts of the step
+    /// then run with their lanes busy), else the free lanes before the refill (camera
+    /// rays then go to Embree as full, coherent packets). The groups that hold the most
+    /// such lanes keep them and take the others', lane for lane, so a path moves only
+    /// when its kind changes. A path computes the same bits in any lane, so the image
+    /// does not change.
+    fn sort_lanes(&mut self, kind: impl Fn(&Group<F>) -> F::Mask) {
         let w = F::WIDTH;
         let usable = F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
-        let inside = |g: &Group<F>| {
-            g.paths.alive
-                & usable
-                & if MEDIA {
-                    F::Mask::from_fn(|i| g.paths.in_medium(i))
-                } else {
-                    g.paths.at_camera
-                }
-        };
-        let mut counts = [0u32; PATHS_IN_FLIGHT];
-        for (c, g) in counts.iter_mut().zip(&self.groups) {
-            *c = inside(g).bits().count_ones();
+        let capacity = usable.bits().count_ones();
+        // Bit k of `by_count[c]`: group k holds c lanes of the kind.
+        let mut by_count = [0u64; 9];
+        let mut n = 0;
+        for (k, g) in self.groups.iter().enumerate() {
+            let c = (kind(g) & usable).bits().count_ones();
+            by_count[c as usize] |= 1 << k;
+            n += c;
         }
-        let counts = &counts[..F::GROUPS];
-        let (n, capacity) = (counts.iter().sum::<u32>(), usable.bits().count_ones());
-        if n == 0 || capacity == 0 {
-            return;
+        let partial = !(by_count[0] | by_count[capacity as usize]);
+        if n == 0 || (partial & self.all_groups()).count_ones() <= 1 {
+            return; // Already as gathered as it can be.
         }
-        // Stable: among equal counts the lower group keeps its paths, round after round.
-        let mut order: [usize; PATHS_IN_FLIGHT] = std::array::from_fn(|k| k);
-        let order = &mut order[..F::GROUPS];
-        order.sort_by_key(|&k| std::cmp::Reverse(counts[k]));
-        let (kept, rest) = order.split_at((n.div_ceil(capacity) as usize).min(F::GROUPS));
+        // Most first; among equal counts the lower group first, round after round.
+        let mut order = [0usize; PATHS_IN_FLIGHT];
+        let mut len = 0;
+        for c in (0..=w).rev() {
+            let mut bits = by_count[c];
+            while bits != 0 {
+                order[len] = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                len += 1;
+            }
+        }
+        let (kept, rest) = order[..F::GROUPS].split_at(n.div_ceil(capacity) as usize);
         let (mut holes, mut movers) = ([0usize; PATHS_IN_FLIGHT], [0usize; PATHS_IN_FLIGHT]);
         let (mut h, mut m) = (0, 0);
         for &k in kept {
-            for i in (usable & !inside(&self.groups[k])).iter() {
+            for i in (usable & !kind(&self.groups[k])).iter() {
                 holes[h] = k * w + i;
                 h += 1;
             }
         }
         for &k in rest {
-            for i in inside(&self.groups[k]).iter() {
+            for i in (usable & kind(&self.groups[k])).iter() {
                 movers[m] = k * w + i;
                 m += 1;
             }
@@ -411,15 +421,29 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// Exchanges the paths of global lanes `a` and `b` (group · W + lane) of two groups.
+    /// Bit k for every group k.
+    fn all_groups(&self) -> u64 {
+        u64::MAX >> (64 - F::GROUPS)
+    }
+
+    /// Exchanges the paths of global lanes `a` and `b` (group · W + lane) of two groups;
+    /// a path facing a free lane just moves there.
     fn swap_lanes(&mut self, a: usize, b: usize) {
         let w = F::WIDTH;
+        let (ga, gb) = (a / w, b / w);
+        let (ia, ib) = (a % w, b % w);
+        let alive = |g: usize, i: usize| self.groups[g].paths.alive.get(i);
         let (pa, pb) = (
-            self.groups[a / w].paths.path(a % w),
-            self.groups[b / w].paths.path(b % w),
+            alive(ga, ia).then(|| self.groups[ga].paths.path(ia)),
+            alive(gb, ib).then(|| self.groups[gb].paths.path(ib)),
         );
-        self.groups[a / w].paths.set_path(a % w, &pb);
-        self.groups[b / w].paths.set_path(b % w, &pa);
+        for (g, i, p) in [(ga, ia, pb), (gb, ib, pa)] {
+            let paths = &mut self.groups[g].paths;
+            match p {
+                Some(p) => paths.set_path(i, &p),
+                None => paths.alive = paths.alive.with(i, false),
+            }
+        }
     }
 
     /// Gives every free lane a path: a waiting split-off path, else the next sample of
