@@ -280,9 +280,9 @@ pub struct Tracer<F: Width> {
     pub usable: u32,
     /// Where every traced ray is recorded, if anywhere (`stokes bench limit`).
     pub log: Option<Box<RayLog>>,
-    /// Gather the paths that start a round inside a medium (in scenes with media) or at
-    /// the camera (without) into as few groups as they fill ([`Self::sort_lanes`]); a
-    /// test hook to turn it off.
+    /// Gather the free lanes before each refill, and the paths that start a round inside
+    /// a medium after it, into as few groups as they fill ([`Self::sort_lanes`]); a test
+    /// hook to turn it off.
     pub sort: bool,
 }
 
@@ -327,17 +327,15 @@ impl<F: Width> Tracer<F> {
     ) {
         let sort = self.sort && F::GROUPS > 1 && !self.lockstep;
         loop {
-            if sort && MEDIA {
-                for k in 0..F::GROUPS {
-                    self.refill(k, scene, opts, seed, work, lambdas);
-                }
-                self.sort_lanes(|g| g.paths.alive & F::Mask::from_fn(|i| g.paths.in_medium(i)));
-            } else if sort {
+            if sort {
                 // Free lanes gathered first: the refill then starts its camera paths in
                 // whole groups, and a path moves into a free lane instead of trading.
                 self.sort_lanes(|g| !g.paths.alive);
                 for k in 0..F::GROUPS {
                     self.refill(k, scene, opts, seed, work, lambdas);
+                }
+                if MEDIA {
+                    self.sort_lanes(|g| g.paths.alive & F::Mask::from_fn(|i| g.paths.in_medium(i)));
                 }
             }
             let mut any = false;
@@ -368,9 +366,10 @@ impl<F: Width> Tracer<F> {
     }
 
     /// Moves paths between groups so that the lanes of `kind` fill as few groups as they
-    /// can: in scenes with media the paths inside a medium (the medium's parts of the step
-    /// then run with their lanes busy), else the free lanes before the refill (camera
-    /// rays then go to Embree as full, coherent packets). The groups that hold the most
+    /// can: the free lanes before the refill (camera rays then go to Embree as full,
+    /// coherent packets), and in scenes with media the paths inside a medium after it
+    /// (the medium's parts of the step then run with their lanes busy). The groups that
+    /// hold the most
     /// such lanes keep them and take the others', lane for lane, so a path moves only
     /// when its kind changes. A path computes the same bits in any lane, so the image
     /// does not change.
