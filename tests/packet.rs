@@ -285,10 +285,9 @@ fn masked_lanes_never_contribute_and_a_lone_lane_equals_the_single_ray_path() {
 
 /// Runs pixel samples 0..n (sample index 0 of pixels 0..n) through a tracer of width `F`
 /// that may use only the lanes of `usable`: the results and wavelengths per sample (plus
-/// a sentinel slot that nothing may write), and the lane occupancy; `sort`: paths in media
-/// gathered into the same groups.
-/// Results, wavelengths, lane occupancy, and the busy share of the steps inside a medium
-/// and of those that traced camera rays.
+/// a sentinel slot that nothing may write), the lane occupancy, and the busy shares of the
+/// steps inside a medium and of the steps that traced camera rays; `sort`: lanes gathered
+/// into groups ([`Tracer::sort`]).
 fn run_packets<F: Width>(
     scene: &Scene,
     po: &PathOptions,
@@ -323,6 +322,59 @@ fn run_packets<F: Width>(
     (results, lambdas, occupancy, medium, camera)
 }
 
+/// Which busy share a gathering must raise: the medium's steps, or the camera's.
+#[derive(Clone, Copy)]
+enum Share {
+    Medium,
+    Camera,
+}
+
+/// Sorting on and off must give the same bits for every sample of `file` at widths 4 and
+/// 8, and sorting must raise the busy share `share` by more than `rise`.
+fn gathering_changes_no_result_and_raises(file: &str, share: Share, rise: f64) {
+    let mut scene = scene_file(file);
+    scene.set_resolution(32, 32);
+    let po = path_opts(Dispersion::Drop);
+    let n = 1024;
+    for width in [4, 8] {
+        let run = |sort| {
+            let (results, lambdas, _, medium, camera) = match width {
+                4 => run_packets::<F4>(&scene, &po, u32::MAX, false, sort, n),
+                _ => run_packets::<F8>(&scene, &po, u32::MAX, false, sort, n),
+            };
+            let busy = match share {
+                Share::Medium => medium,
+                Share::Camera => camera,
+            };
+            (results, lambdas, busy)
+        };
+        let ((a, la, apart), (b, lb, together)) = (run(false), run(true));
+        let bits = |v: &[Vec4]| {
+            v.iter()
+                .map(|x| x.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            bits(&a),
+            bits(&b),
+            "{file}, width {width}: sorting changed a result"
+        );
+        assert_eq!(
+            la, lb,
+            "{file}, width {width}: sorting changed a wavelength"
+        );
+        let what = match share {
+            Share::Medium => "medium",
+            Share::Camera => "camera",
+        };
+        assert!(
+            together > apart + rise,
+            "{file}, width {width}: {what} lanes {together:.3} busy gathered, {apart:.3} not"
+        );
+        eprintln!("{file}, width {width}: {what} lanes busy {apart:.3} → {together:.3}");
+    }
+}
+
 /// Gathering the paths inside a medium into the same groups moves paths between lanes
 /// but changes no bit of any sample, and it must fill the medium's steps: their share of
 /// busy lanes rises by more than 0.2 at widths 4 and 8 (measured 0.32 → 0.83 and
@@ -330,37 +382,7 @@ fn run_packets<F: Width>(
 #[test]
 fn gathering_the_paths_in_media_changes_no_result_and_fills_the_lanes() {
     for file in ["fluorescent-volume-440nm.toml", "fluorescent-slab.toml"] {
-        let mut scene = scene_file(file);
-        scene.set_resolution(32, 32);
-        let po = path_opts(Dispersion::Drop);
-        let n = 1024;
-        for width in [4, 8] {
-            let run = |sort| match width {
-                4 => run_packets::<F4>(&scene, &po, u32::MAX, false, sort, n),
-                _ => run_packets::<F8>(&scene, &po, u32::MAX, false, sort, n),
-            };
-            let ((a, la, _, apart, _), (b, lb, _, together, _)) = (run(false), run(true));
-            let bits = |v: &[Vec4]| {
-                v.iter()
-                    .map(|x| x.to_array().map(f32::to_bits))
-                    .collect::<Vec<_>>()
-            };
-            assert_eq!(
-                bits(&a),
-                bits(&b),
-                "{file}, width {width}: sorting changed a result"
-            );
-            assert_eq!(
-                la, lb,
-                "{file}, width {width}: sorting changed a wavelength"
-            );
-            // The share of busy lanes in the group steps that track through a medium.
-            assert!(
-                together > apart + 0.2,
-                "{file}, width {width}: medium lanes {together:.3} busy gathered, {apart:.3} not"
-            );
-            eprintln!("{file}, width {width}: medium lanes busy {apart:.3} → {together:.3}");
-        }
+        gathering_changes_no_result_and_raises(file, Share::Medium, 0.2);
     }
 }
 
@@ -378,36 +400,7 @@ fn gathering_the_camera_paths_changes_no_result_and_fills_the_camera_packets() {
         "sphere-100k.toml",
         "fluorescent-volume-440nm.toml",
     ] {
-        let mut scene = scene_file(file);
-        scene.set_resolution(32, 32);
-        let po = path_opts(Dispersion::Drop);
-        let n = 1024;
-        for width in [4, 8] {
-            let run = |sort| match width {
-                4 => run_packets::<F4>(&scene, &po, u32::MAX, false, sort, n),
-                _ => run_packets::<F8>(&scene, &po, u32::MAX, false, sort, n),
-            };
-            let ((a, la, _, _, apart), (b, lb, _, _, together)) = (run(false), run(true));
-            let bits = |v: &[Vec4]| {
-                v.iter()
-                    .map(|x| x.to_array().map(f32::to_bits))
-                    .collect::<Vec<_>>()
-            };
-            assert_eq!(
-                bits(&a),
-                bits(&b),
-                "{file}, width {width}: sorting changed a result"
-            );
-            assert_eq!(
-                la, lb,
-                "{file}, width {width}: sorting changed a wavelength"
-            );
-            assert!(
-                together > apart + 0.3,
-                "{file}, width {width}: camera lanes {together:.3} busy gathered, {apart:.3} not"
-            );
-            eprintln!("{file}, width {width}: camera lanes busy {apart:.3} → {together:.3}");
-        }
+        gathering_changes_no_result_and_raises(file, Share::Camera, 0.3);
     }
 }
 

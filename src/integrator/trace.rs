@@ -369,15 +369,14 @@ impl<F: Width> Tracer<F> {
     /// can: the free lanes before the refill (camera rays then go to Embree as full,
     /// coherent packets), and in scenes with media the paths inside a medium after it
     /// (the medium's parts of the step then run with their lanes busy). The groups that
-    /// hold the most
-    /// such lanes keep them and take the others', lane for lane, so a path moves only
-    /// when its kind changes. A path computes the same bits in any lane, so the image
-    /// does not change.
+    /// hold the most such lanes keep them and take the others', lane for lane, so a path
+    /// moves only when its kind changes. A path computes the same bits in any lane, so
+    /// the image does not change.
     fn sort_lanes(&mut self, kind: impl Fn(&Group<F>) -> F::Mask) {
         let w = F::WIDTH;
         let usable = F::Mask::from_fn(|i| self.usable >> i & 1 != 0);
         let capacity = usable.bits().count_ones();
-        // Bit k of `by_count[c]`: group k holds c lanes of the kind.
+        // Bit k of `by_count[c]`: group k holds c lanes of the kind (c ≤ W ≤ 8).
         let mut by_count = [0u64; 9];
         let mut n = 0;
         for (k, g) in self.groups.iter().enumerate() {
