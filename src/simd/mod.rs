@@ -63,6 +63,8 @@ pub trait Mask:
     fn splat(b: bool) -> Self;
     /// Lane `i` is `f(i)`.
     fn from_fn(f: impl FnMut(usize) -> bool) -> Self;
+    /// Lane `i` set where bit `i` of `b` is (bits from W up are ignored).
+    fn from_bits(b: u32) -> Self;
     /// Bit `i` set where lane `i` is.
     fn bits(self) -> u32;
     /// Whether lane `i` is set.
@@ -73,7 +75,7 @@ pub trait Mask:
     /// This mask with lane `i` set to `b`.
     #[inline(always)]
     fn with(self, i: usize, b: bool) -> Self {
-        Self::from_fn(|k| if k == i { b } else { self.get(k) })
+        Self::from_bits(self.bits() & !(1 << i) | (b as u32) << i)
     }
     /// Whether any lane is set.
     #[inline(always)]
@@ -301,6 +303,10 @@ impl Mask for bool {
     #[inline(always)]
     fn from_fn(mut f: impl FnMut(usize) -> bool) -> bool {
         f(0)
+    }
+    #[inline(always)]
+    fn from_bits(b: u32) -> bool {
+        b & 1 != 0
     }
     #[inline(always)]
     fn bits(self) -> u32 {
@@ -580,5 +586,31 @@ mod tests {
         assert_eq!((m & !m).bits(), 0);
         assert_eq!((m | !m).bits(), 0b1111);
         assert_eq!(true.iter().collect::<Vec<_>>(), vec![0]);
+    }
+
+    /// Every pattern of lanes survives bits → mask → bits, from bools and from bits, and
+    /// `with` changes one lane only, at every width.
+    #[test]
+    fn masks_from_bits_from_fn_and_with_agree() {
+        fn check<M: Mask>(width: usize) {
+            let all = (1u32 << width) - 1;
+            for b in 0..=all {
+                let m = M::from_bits(b);
+                assert_eq!(m.bits(), b, "from_bits({b:#b})");
+                assert_eq!(M::from_fn(|i| b >> i & 1 != 0), m, "from_fn of {b:#b}");
+                assert_eq!(M::from_bits(b | !all).bits(), b, "high bits of {b:#b}");
+                for i in 0..width {
+                    assert_eq!(m.with(i, true).bits(), b | 1 << i, "{b:#b} with {i} set");
+                    assert_eq!(
+                        m.with(i, false).bits(),
+                        b & !(1 << i),
+                        "{b:#b} with {i} clear"
+                    );
+                }
+            }
+        }
+        check::<bool>(1);
+        check::<M4>(4);
+        check::<M8>(8);
     }
 }

@@ -67,9 +67,17 @@ macro_rules! paths {
 
         /// One `bool` per path of the vector type of the same width, as all-ones or
         /// all-zeros lanes.
-        #[derive(Clone, Copy, PartialEq)]
+        #[derive(Clone, Copy)]
         #[repr(transparent)]
         pub struct $m($fx);
+
+        /// Equal lanes (not the floats' equality: a set lane is a NaN).
+        impl PartialEq for $m {
+            #[inline(always)]
+            fn eq(&self, o: &$m) -> bool {
+                self.bits() == o.bits()
+            }
+        }
 
         impl fmt::Debug for $f {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -88,10 +96,16 @@ macro_rules! paths {
             fn splat(b: bool) -> $m {
                 $m($fx::splat(f32::from_bits(if b { u32::MAX } else { 0 })))
             }
+            /// The bools gathered as bits, then spread to lanes in registers (cheaper
+            /// than inserting W lanes into a vector).
             #[inline(always)]
             fn from_fn(mut f: impl FnMut(usize) -> bool) -> $m {
-                let l = |b: bool| f32::from_bits(if b { u32::MAX } else { 0 });
-                $m($fx::new([$(l(f($i))),+]))
+                $m::from_bits(0 $(| (f($i) as u32) << $i)+)
+            }
+            #[inline(always)]
+            fn from_bits(b: u32) -> $m {
+                let lane = $ix::new([$(1 << $i),+]);
+                $m(bytemuck::cast(($ix::splat(b as i32) & lane).cmp_eq(lane)))
             }
             #[inline(always)]
             fn bits(self) -> u32 {
