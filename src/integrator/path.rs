@@ -254,6 +254,45 @@ impl<F: Float> Paths<F> {
         self.slot[i] = p.slot[0];
     }
 
+    /// Moves the path in lane `i` of `src` into lane `j`, field by field (no one-path
+    /// record in between: the driver's gathering moves many paths), and frees lane `i`.
+    /// The same result as `set_path(j, &src.path(i))` and `src.alive.with(i, false)`.
+    #[inline(always)]
+    pub fn take_lane(&mut self, j: usize, src: &mut Paths<F>, i: usize) {
+        fn spec<F: Float>(d: &mut Spec<F>, j: usize, s: &Spec<F>, i: usize) {
+            for k in 0..4 {
+                d.0[k].set(j, s.0[k].get(i));
+            }
+        }
+        fn v3<F: Float>(d: &mut V3<F>, j: usize, s: &V3<F>, i: usize) {
+            d.set_path(j, s.path(i));
+        }
+        self.alive = self.alive.with(j, src.alive.get(i));
+        self.at_camera = self.at_camera.with(j, src.at_camera.get(i));
+        v3(&mut self.org, j, &src.org, i);
+        v3(&mut self.dir, j, &src.dir, i);
+        spec(&mut self.l, j, &src.l, i);
+        spec(&mut self.lambda, j, &src.lambda, i);
+        spec(&mut self.beta, j, &src.beta, i);
+        spec(&mut self.ratio, j, &src.ratio, i);
+        self.prev.has = self.prev.has.with(j, src.prev.has.get(i));
+        spec(&mut self.prev.pdf_dir, j, &src.prev.pdf_dir, i);
+        spec(&mut self.prev.ratio, j, &src.prev.ratio, i);
+        v3(&mut self.prev.p, j, &src.prev.p, i);
+        spec(&mut self.prev.pass, j, &src.prev.pass, i);
+        self.constant = self.constant.with(j, src.constant.get(i));
+        self.depth[j] = src.depth[i];
+        self.medium[j] = src.medium[i];
+        self.crossings[j] = src.crossings[i];
+        self.le_emitter[j] = src.le_emitter[i];
+        spec(&mut self.le_value, j, &src.le_value, i);
+        self.rng.set_lane(j, src.rng.lane(i));
+        self.shift_rng[j] = src.shift_rng[i];
+        self.out_lane[j] = src.out_lane[i];
+        self.slot[j] = src.slot[i];
+        src.alive = src.alive.with(i, false);
+    }
+
     /// Whether path `i` is inside a medium.
     pub fn in_medium(&self, i: usize) -> bool {
         self.medium[i] != NO_MEDIUM
@@ -1085,5 +1124,81 @@ impl Paths<f32> {
                 children.push(child);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simd::{F4, F8};
+
+    /// A one-path record whose every field holds a value derived from `k` (a struct
+    /// literal without `..`, so that a new field must be given a value here too).
+    fn distinct(k: u32) -> Paths<f32> {
+        let x = k as f32;
+        let v4 = |o: f32| Vec4::new(x + o, x + o + 0.25, x + o + 0.5, x + o + 0.75);
+        let v3 = |o: f32| Vec3::new(x + o, x + o + 0.25, x + o + 0.5);
+        Paths {
+            alive: true,
+            at_camera: k % 2 == 0,
+            org: v3(1.0).into(),
+            dir: v3(2.0).into(),
+            l: v4(3.0).into(),
+            lambda: v4(400.0).into(),
+            beta: v4(5.0).into(),
+            ratio: v4(6.0).into(),
+            prev: Prev {
+                has: k % 3 == 0,
+                pdf_dir: v4(7.0).into(),
+                ratio: v4(8.0).into(),
+                p: v3(9.0).into(),
+                pass: v4(10.0).into(),
+            },
+            constant: k % 5 == 0,
+            depth: [k as i32 + 11],
+            medium: [k + 12],
+            crossings: [k + 13],
+            le_emitter: [k + 14],
+            le_value: v4(15.0).into(),
+            rng: Streams::new(k as u64, 16),
+            shift_rng: [LazyStream::new(k as u64, 17, 18)],
+            out_lane: [(k % 4) as u8],
+            slot: [k + 19],
+        }
+    }
+
+    /// Moving a path field by field leaves both packets as the one-path record would
+    /// (every field, every lane), at widths 4 and 8.
+    #[test]
+    fn take_lane_moves_every_field_as_the_one_path_record_does() {
+        fn check<F: Float>() {
+            let w = F::WIDTH;
+            let mut source = Paths::<F>::empty();
+            let mut target = Paths::<F>::empty();
+            for i in 0..w {
+                source.set_path(i, &distinct(i as u32));
+                target.set_path(i, &distinct(100 + i as u32));
+            }
+            for (i, j) in [(1, 2), (0, w - 1), (w - 1, 0)] {
+                target.alive = target.alive.with(j, false);
+                let (mut want_target, mut want_source) = (target, source);
+                want_target.set_path(j, &source.path(i));
+                want_source.alive = want_source.alive.with(i, false);
+                target.take_lane(j, &mut source, i);
+                assert_eq!(
+                    format!("{target:?}"),
+                    format!("{want_target:?}"),
+                    "{i} → {j}"
+                );
+                assert_eq!(
+                    format!("{source:?}"),
+                    format!("{want_source:?}"),
+                    "{i} → {j}"
+                );
+                source.set_path(i, &distinct(i as u32));
+            }
+        }
+        check::<F4>();
+        check::<F8>();
     }
 }

@@ -430,10 +430,23 @@ impl<F: Width> Tracer<F> {
         let w = F::WIDTH;
         let (ga, gb) = (a / w, b / w);
         let (ia, ib) = (a % w, b % w);
-        let alive = |g: usize, i: usize| self.groups[g].paths.alive.get(i);
+        let alive_a = self.groups[ga].paths.alive.get(ia);
+        let alive_b = self.groups[gb].paths.alive.get(ib);
+        // A live path moving to a free lane of another group (the common case): field
+        // by field.
+        if ga != gb && alive_a != alive_b {
+            let ((gs, is), (gt, it)) = match alive_a {
+                true => ((ga, ia), (gb, ib)),
+                false => ((gb, ib), (ga, ia)),
+            };
+            if let Ok([source, target]) = self.groups.get_disjoint_mut([gs, gt]) {
+                target.paths.take_lane(it, &mut source.paths, is);
+                return;
+            }
+        }
         let (pa, pb) = (
-            alive(ga, ia).then(|| self.groups[ga].paths.path(ia)),
-            alive(gb, ib).then(|| self.groups[gb].paths.path(ib)),
+            alive_a.then(|| self.groups[ga].paths.path(ia)),
+            alive_b.then(|| self.groups[gb].paths.path(ib)),
         );
         for (g, i, p) in [(ga, ia, pb), (gb, ib, pa)] {
             let paths = &mut self.groups[g].paths;
