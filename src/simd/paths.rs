@@ -96,12 +96,15 @@ macro_rules! paths {
             fn splat(b: bool) -> $m {
                 $m($fx::splat(f32::from_bits(if b { u32::MAX } else { 0 })))
             }
-            /// The bools gathered as bits, then spread to lanes in registers (cheaper
-            /// than inserting W lanes into a vector).
+            /// Lane by lane (gathering the bools as bits and spreading them with
+            /// [`Mask::from_bits`] measured 0.8 % more instructions in a medium).
             #[inline(always)]
             fn from_fn(mut f: impl FnMut(usize) -> bool) -> $m {
-                $m::from_bits(0 $(| (f($i) as u32) << $i)+)
+                let l = |b: bool| f32::from_bits(if b { u32::MAX } else { 0 });
+                $m($fx::new([$(l(f($i))),+]))
             }
+            /// The bits spread to lanes in registers: `with` changes one lane with a
+            /// few instructions instead of rebuilding the vector lane by lane.
             #[inline(always)]
             fn from_bits(b: u32) -> $m {
                 let lane = $ix::new([$(1 << $i),+]);
