@@ -1140,7 +1140,7 @@ mod tests {
         let v3 = |o: f32| Vec3::new(x + o, x + o + 0.25, x + o + 0.5);
         Paths {
             alive: true,
-            at_camera: k % 2 == 0,
+            at_camera: k.is_multiple_of(2),
             org: v3(1.0).into(),
             dir: v3(2.0).into(),
             l: v4(3.0).into(),
@@ -1148,13 +1148,13 @@ mod tests {
             beta: v4(5.0).into(),
             ratio: v4(6.0).into(),
             prev: Prev {
-                has: k % 3 == 0,
+                has: k.is_multiple_of(3),
                 pdf_dir: v4(7.0).into(),
                 ratio: v4(8.0).into(),
                 p: v3(9.0).into(),
                 pass: v4(10.0).into(),
             },
-            constant: k % 5 == 0,
+            constant: k.is_multiple_of(5),
             depth: [k as i32 + 11],
             medium: [k + 12],
             crossings: [k + 13],
