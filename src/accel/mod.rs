@@ -622,23 +622,28 @@ impl<const N: usize> RaysN<N> {
     }
 }
 
-/// The closest hits of four rays in structure-of-arrays form; `geom[k]` is `u32::MAX`
+/// The closest hits of N rays in structure-of-arrays form; `geom[k]` is `u32::MAX`
 /// where ray k hit nothing (the other fields are then meaningless).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Hits4 {
+#[derive(Debug, Clone, Copy)]
+pub struct HitsN<const N: usize> {
     /// Distances along the rays.
-    pub t: [f32; 4],
+    pub t: [f32; N],
     /// Unnormalised geometric normals, per coordinate.
-    pub ng: [[f32; 4]; 3],
+    pub ng: [[f32; N]; 3],
     /// Geometry ids.
-    pub geom: [u32; 4],
+    pub geom: [u32; N],
     /// Triangle indices.
-    pub prim: [u32; 4],
+    pub prim: [u32; N],
     /// Barycentric coordinates of vertex 1 (Embree's `u`).
-    pub u: [f32; 4],
+    pub u: [f32; N],
     /// Barycentric coordinates of vertex 2 (Embree's `v`).
-    pub v: [f32; 4],
+    pub v: [f32; N],
 }
+
+/// The hits of a 4-wide packet.
+pub type Hits4 = HitsN<4>;
+/// The hits of an 8-wide packet.
+pub type Hits8 = HitsN<8>;
 
 impl RayHit4 {
     /// A packet holding `rays`, hits cleared.
@@ -886,23 +891,6 @@ impl Scene {
     }
 }
 
-/// The closest hits of eight rays ([`Hits4`] for 8-wide packets).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Hits8 {
-    /// Distances along the rays.
-    pub t: [f32; 8],
-    /// Unnormalised geometric normals, per coordinate.
-    pub ng: [[f32; 8]; 3],
-    /// Geometry ids (`u32::MAX` for a miss).
-    pub geom: [u32; 8],
-    /// Triangle indices.
-    pub prim: [u32; 8],
-    /// Barycentric coordinates of vertex 1.
-    pub u: [f32; 8],
-    /// Barycentric coordinates of vertex 2.
-    pub v: [f32; 8],
-}
-
 /// Embree's 8-wide ray-hit packet, 32-byte aligned as `rtcIntersect8` requires.
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Default)]
@@ -1117,6 +1105,158 @@ impl Scene {
             // SAFETY: the scene is committed; `args` and the ray are valid for the call.
             unsafe { sys::rtcOccluded1(self.raw, &mut r.ray, &mut args) };
         }
+    }
+}
+
+/// Up to N rays and their hits in structure-of-arrays form, for Embree 3's SoA stream
+/// query (`rtcIntersectNp`): a tracer copies its W-wide packets in at consecutive
+/// places and reads their hits back in the same form, so that nothing goes lane by lane.
+/// Traced as coherent, Embree packs the stream into packets of its widest vectors and
+/// traverses them together, faster than 4- or 8-wide packets for camera rays.
+#[repr(C, align(64))]
+pub struct PacketStream<const N: usize> {
+    org: [[f32; N]; 3],
+    dir: [[f32; N]; 3],
+    tnear: [f32; N],
+    tfar: [f32; N],
+    time: [f32; N],
+    mask: [u32; N],
+    id: [u32; N],
+    flags: [u32; N],
+    ng: [[f32; N]; 3],
+    u: [f32; N],
+    v: [f32; N],
+    prim: [u32; N],
+    geom: [u32; N],
+    inst: [u32; N],
+    len: usize,
+}
+
+impl<const N: usize> Default for PacketStream<N> {
+    fn default() -> PacketStream<N> {
+        // Every array starts 16-byte aligned, as Embree asks, when N is a multiple of 4.
+        const { assert!(N.is_multiple_of(4)) };
+        PacketStream {
+            org: [[0.0; N]; 3],
+            dir: [[0.0; N]; 3],
+            tnear: [0.0; N],
+            tfar: [0.0; N],
+            time: [0.0; N],
+            mask: [u32::MAX; N],
+            id: std::array::from_fn(|k| k as u32),
+            flags: [0; N],
+            ng: [[0.0; N]; 3],
+            u: [0.0; N],
+            v: [0.0; N],
+            prim: [0; N],
+            geom: [sys::RTC_INVALID_GEOMETRY_ID; N],
+            inst: [sys::RTC_INVALID_GEOMETRY_ID; N],
+            len: 0,
+        }
+    }
+}
+
+impl<const N: usize> PacketStream<N> {
+    /// Empties the stream.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// How many rays the stream holds (W for each packet pushed).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the stream is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends a packet of W rays, of which those in `active` that Embree can trace are
+    /// traced (the others get `tfar` = −∞ < `tnear`, which makes Embree skip them);
+    /// returns where the packet starts, for [`Self::hits`]. Panics if the stream is full.
+    pub fn push<const W: usize>(&mut self, rays: &RaysN<W>, active: [bool; W]) -> usize {
+        let at = self.len;
+        let end = at + W;
+        assert!(end <= N, "a stream of {N} rays cannot take {end}");
+        for c in 0..3 {
+            self.org[c][at..end].copy_from_slice(&rays.org[c]);
+            self.dir[c][at..end].copy_from_slice(&rays.dir[c]);
+        }
+        self.tnear[at..end].fill(0.0);
+        for (k, &active) in active.iter().enumerate() {
+            let on = active
+                && traceable(
+                    [rays.org[0][k], rays.org[1][k], rays.org[2][k]],
+                    [rays.dir[0][k], rays.dir[1][k], rays.dir[2][k]],
+                    0.0,
+                    rays.tfar[k],
+                );
+            self.tfar[at + k] = if on { rays.tfar[k] } else { f32::NEG_INFINITY };
+        }
+        self.geom[at..end].fill(sys::RTC_INVALID_GEOMETRY_ID);
+        self.len = end;
+        at
+    }
+
+    /// The hits of the packet pushed at `at`, after [`Scene::intersect_packets`]; a lane
+    /// that was not traced reads as a miss at t = −∞.
+    pub fn hits<const W: usize>(&self, at: usize) -> HitsN<W> {
+        let end = at + W;
+        let arr = |a: &[f32; N]| -> [f32; W] { a[at..end].try_into().expect("W lanes") };
+        let words = |a: &[u32; N]| -> [u32; W] { a[at..end].try_into().expect("W lanes") };
+        HitsN {
+            t: arr(&self.tfar),
+            ng: [arr(&self.ng[0]), arr(&self.ng[1]), arr(&self.ng[2])],
+            geom: words(&self.geom),
+            prim: words(&self.prim),
+            u: arr(&self.u),
+            v: arr(&self.v),
+        }
+    }
+}
+
+#[cfg(embree3)]
+impl Scene {
+    /// Closest hits of every ray of the packet stream (`rtcIntersectNp`).
+    pub fn intersect_packets<const N: usize>(
+        &self,
+        stream: &mut PacketStream<N>,
+        coherence: Coherence,
+    ) {
+        let s = stream;
+        let rays = sys::RTCRayHitNp {
+            ray: sys::RTCRayNp {
+                org_x: s.org[0].as_mut_ptr(),
+                org_y: s.org[1].as_mut_ptr(),
+                org_z: s.org[2].as_mut_ptr(),
+                tnear: s.tnear.as_mut_ptr(),
+                dir_x: s.dir[0].as_mut_ptr(),
+                dir_y: s.dir[1].as_mut_ptr(),
+                dir_z: s.dir[2].as_mut_ptr(),
+                time: s.time.as_mut_ptr(),
+                tfar: s.tfar.as_mut_ptr(),
+                mask: s.mask.as_mut_ptr(),
+                id: s.id.as_mut_ptr(),
+                flags: s.flags.as_mut_ptr(),
+            },
+            hit: sys::RTCHitNp {
+                Ng_x: s.ng[0].as_mut_ptr(),
+                Ng_y: s.ng[1].as_mut_ptr(),
+                Ng_z: s.ng[2].as_mut_ptr(),
+                u: s.u.as_mut_ptr(),
+                v: s.v.as_mut_ptr(),
+                primID: s.prim.as_mut_ptr(),
+                geomID: s.geom.as_mut_ptr(),
+                instID: [s.inst.as_mut_ptr()],
+            },
+        };
+        let mut ctx = query::Ctx::new(coherence);
+        // SAFETY: the scene is committed; every pointer in `rays` points to an array of N
+        // ≥ `s.len` elements of the stream, 16-byte aligned (the struct is 64-byte aligned
+        // and each array's size a multiple of 16 bytes), which stays borrowed and
+        // unmoved for the call.
+        unsafe { sys::rtcIntersectNp(self.raw, &mut ctx.0, &rays, s.len as u32) };
     }
 }
 
