@@ -640,6 +640,21 @@ pub struct HitsN<const N: usize> {
     pub v: [f32; N],
 }
 
+impl<const N: usize> HitsN<N> {
+    /// Ray `k`'s hit, or `None` for a miss.
+    #[inline]
+    pub fn hit(&self, k: usize) -> Option<Hit> {
+        (self.geom[k] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+            t: self.t[k],
+            geom_id: self.geom[k],
+            prim_id: self.prim[k],
+            u: self.u[k],
+            v: self.v[k],
+            ng: Vec3::new(self.ng[0][k], self.ng[1][k], self.ng[2][k]),
+        })
+    }
+}
+
 /// The hits of a 4-wide packet.
 pub type Hits4 = HitsN<4>;
 /// The hits of an 8-wide packet.
@@ -1173,7 +1188,8 @@ impl<const N: usize> PacketStream<N> {
     }
 
     /// Appends a packet of W rays, of which those in `active` that Embree can trace are
-    /// traced (the others get `tfar` = −∞ < `tnear`, which makes Embree skip them);
+    /// traced (the others get `tfar` = −∞ < `tnear`, which makes Embree skip them; every
+    /// `tnear` is 0 from the start, and Embree does not write it);
     /// returns where the packet starts, for [`Self::hits`]. Panics if the stream is full.
     pub fn push<const W: usize>(&mut self, rays: &RaysN<W>, active: [bool; W]) -> usize {
         let at = self.len;
@@ -1183,7 +1199,6 @@ impl<const N: usize> PacketStream<N> {
             self.org[c][at..end].copy_from_slice(&rays.org[c]);
             self.dir[c][at..end].copy_from_slice(&rays.dir[c]);
         }
-        self.tnear[at..end].fill(0.0);
         for (k, &active) in active.iter().enumerate() {
             let on = active
                 && traceable(

@@ -73,8 +73,8 @@ pub trait Width: Float {
         active: Self::Mask,
     ) -> usize;
     /// The closest hits of the packet that [`Self::push_rays`] put at `at`, once the
-    /// stream was traced; lanes outside `active` miss.
-    fn stream_hits(stream: &CameraStream, at: usize, active: Self::Mask) -> Hits<Self>;
+    /// stream was traced (the lanes it skipped miss).
+    fn stream_hits(stream: &CameraStream, at: usize) -> Hits<Self>;
 }
 
 /// The camera rays of the groups in flight, traced as one stream.
@@ -106,18 +106,7 @@ impl Width for f32 {
             true => accel.intersect1(&ray1(org, dir, tfar)),
             false => None,
         };
-        match hit {
-            Some(h) => Hits {
-                valid: true,
-                t: h.t,
-                ng: h.ng.into(),
-                geom: [h.geom_id],
-                prim: [h.prim_id],
-                u: h.u,
-                v: h.v,
-            },
-            None => Hits::miss(),
-        }
+        Hits::from_hit(hit)
     }
 
     #[inline(always)]
@@ -148,34 +137,34 @@ impl Width for f32 {
     }
 
     #[inline(always)]
-    fn stream_hits(stream: &CameraStream, at: usize, active: bool) -> Hits<f32> {
-        let h = stream.hits::<1>(at);
-        match active && h.geom[0] != u32::MAX {
-            true => Hits {
-                valid: true,
-                t: h.t[0],
-                ng: V3::new(h.ng[0][0], h.ng[1][0], h.ng[2][0]),
-                geom: h.geom,
-                prim: h.prim,
-                u: h.u[0],
-                v: h.v[0],
-            },
-            false => Hits::<f32>::miss(),
-        }
+    fn stream_hits(stream: &CameraStream, at: usize) -> Hits<f32> {
+        Hits::from_hit(stream.hits::<1>(at).hit(0))
     }
 }
 
 impl Hits<f32> {
-    /// A single ray's miss.
-    fn miss() -> Hits<f32> {
-        Hits {
-            valid: false,
-            t: 0.0,
-            ng: V3::splat(Vec3::Z),
-            geom: [u32::MAX],
-            prim: [0],
-            u: 0.0,
-            v: 0.0,
+    /// A single ray's hit, or its miss.
+    #[inline(always)]
+    fn from_hit(hit: Option<accel::Hit>) -> Hits<f32> {
+        match hit {
+            Some(h) => Hits {
+                valid: true,
+                t: h.t,
+                ng: h.ng.into(),
+                geom: [h.geom_id],
+                prim: [h.prim_id],
+                u: h.u,
+                v: h.v,
+            },
+            None => Hits {
+                valid: false,
+                t: 0.0,
+                ng: V3::splat(Vec3::Z),
+                geom: [u32::MAX],
+                prim: [0],
+                u: 0.0,
+                v: 0.0,
+            },
         }
     }
 }
@@ -260,7 +249,7 @@ macro_rules! packet_width {
             }
 
             #[inline(always)]
-            fn stream_hits(stream: &CameraStream, at: usize, _: <$f as Float>::Mask) -> Hits<$f> {
+            fn stream_hits(stream: &CameraStream, at: usize) -> Hits<$f> {
                 $soa::hits(&stream.hits::<$w>(at))
             }
         }
@@ -531,11 +520,12 @@ impl<F: Width> Tracer<F> {
     fn trace_cameras(&mut self, scene: &Scene) {
         let stream = &mut *self.camera_rays;
         stream.clear();
-        let mut at = [usize::MAX; PATHS_IN_FLIGHT];
+        let mut at = [None; PATHS_IN_FLIGHT];
         for (k, g) in self.groups.iter().enumerate() {
             let (live, p) = (g.paths.alive, &g.paths);
             if live.any() && (live & !p.at_camera).none() {
-                at[k] = F::push_rays(stream, &p.org, &p.dir, F::splat(f32::INFINITY), live);
+                let inf = F::splat(f32::INFINITY);
+                at[k] = Some(F::push_rays(stream, &p.org, &p.dir, inf, live));
             }
         }
         if stream.len() <= F::WIDTH {
@@ -544,8 +534,8 @@ impl<F: Width> Tracer<F> {
         }
         scene.accel.intersect_packets(stream, Coherence::Coherent);
         for (g, &at) in self.groups.iter_mut().zip(&at) {
-            if at != usize::MAX {
-                g.camera_hits = Some(F::stream_hits(stream, at, g.paths.alive));
+            if let Some(at) = at {
+                g.camera_hits = Some(F::stream_hits(stream, at));
                 self.camera_rays_streamed += g.paths.alive.bits().count_ones() as u64;
             }
         }
