@@ -302,8 +302,12 @@ impl RayLog {
 /// go to Embree together, as one stream. `rtcOccluded1M` packs a stream into packets of
 /// its own and traces it about 1.6× as fast as 4-wide packets or single rays (`stokes
 /// bench limit`: a Cornell box's shadow rays in streams of 32 against 4-wide packets),
-/// while streams of 4 gain nothing.
-pub const PATHS_IN_FLIGHT: usize = 64;
+/// while streams of 4 gain nothing. 128 rather than 64: a round runs the refill, Embree's
+/// camera and shadow streams and the hand-in once for all its groups, and with the step
+/// their code does not fit the first-level instruction cache; twice the paths per round
+/// fetch it half as often per path (`benches/cachesim.py`; README, "Where packets miss
+/// the caches").
+pub const PATHS_IN_FLIGHT: usize = 128;
 
 /// W lanes of paths, their shadow rays, and which of them were live before the step.
 struct Group<F: Float> {
