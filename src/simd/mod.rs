@@ -249,6 +249,15 @@ pub trait Float:
         ]
     }
 
+    /// The W rows of four columns, the inverse of [`Self::columns`]: `rows[i][k]` is lane
+    /// i of column k. Writes per-path records (a ray for Embree) from whole vectors; four
+    /// paths transpose in registers, the other widths go lane by lane.
+    #[inline(always)]
+    fn rows(columns: [Self; 4]) -> Self::Arr<glam::Vec4> {
+        let [x, y, z, w] = columns;
+        Lanes::from_fn(|i| glam::Vec4::new(x.get(i), y.get(i), z.get(i), w.get(i)))
+    }
+
     /// self < o.
     fn lt(self, o: Self) -> Self::Mask;
     /// self ≤ o.
@@ -474,7 +483,8 @@ fn trunc_i32(x: f32) -> i32 {
 mod tests {
     use super::*;
 
-    /// Every width, the 4×4 transpose included, puts lane i of column k at `rows[i][k]`.
+    /// Every width, the 4×4 transpose included, puts lane i of column k at `rows[i][k]`,
+    /// and `rows` undoes `columns`.
     #[test]
     fn columns_transpose_rows_at_every_width() {
         fn check<F: Float>() {
@@ -487,6 +497,10 @@ mod tests {
                     let want = (10 * i + k) as f32;
                     assert_eq!(column.get(i), want, "lane {i}, column {k}");
                 }
+            }
+            let back = F::rows(columns);
+            for i in 0..F::WIDTH {
+                assert_eq!(back[i], rows[i], "rows: lane {i}");
             }
         }
         check::<f32>();

@@ -249,6 +249,10 @@ macro_rules! paths {
                 $f::columns_of(rows)
             }
             #[inline(always)]
+            fn rows(columns: [$f; 4]) -> [glam::Vec4; $n] {
+                $f::rows_of(columns)
+            }
+            #[inline(always)]
             fn to_index(self) -> [u32; $n] {
                 bytemuck::cast(self.0.fast_trunc_int())
             }
@@ -334,6 +338,13 @@ impl F4 {
         let rows = rows.map(|r| f32x4::from(r.to_array()));
         f32x4::transpose(rows).map(F4)
     }
+
+    /// [`Float::rows`] of four columns: the same transpose the other way.
+    #[inline(always)]
+    fn rows_of(columns: [F4; 4]) -> [glam::Vec4; 4] {
+        let rows = f32x4::transpose(columns.map(|c| c.0));
+        rows.map(|r| glam::Vec4::from_array(r.to_array()))
+    }
 }
 
 impl F8 {
@@ -342,5 +353,12 @@ impl F8 {
     fn columns_of(rows: &[glam::Vec4; 8]) -> [F8; 4] {
         let column = |k: usize| F8(f32x8::new(rows.map(|r| r[k])));
         [column(0), column(1), column(2), column(3)]
+    }
+
+    /// [`Float::rows`] of four columns, lane by lane.
+    #[inline(always)]
+    fn rows_of(columns: [F8; 4]) -> [glam::Vec4; 8] {
+        let c = columns.map(|c| c.0.to_array());
+        std::array::from_fn(|i| glam::Vec4::new(c[0][i], c[1][i], c[2][i], c[3][i]))
     }
 }
