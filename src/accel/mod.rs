@@ -452,7 +452,7 @@ impl Ray {
 
 /// Embree's `FLT_LARGE` (common/math/constants.h): `RayK::valid()` wants every origin and
 /// direction component within ±this.
-const FLT_LARGE: f32 = 1.844e18;
+pub const FLT_LARGE: f32 = 1.844e18;
 
 /// Embree's `RayK::valid()` plus its `tnear >= 0` assertion, for one ray.
 #[inline]
@@ -1006,15 +1006,16 @@ impl Scene {
     }
 }
 
-/// A stream of rays. Embree 3 traces it with its stream queries (`rtcIntersect1M`,
-/// `rtcOccluded1M`), which pack the rays into packets of their own; Embree 4, which no
-/// longer has them, ray by ray. The renderer's shadow rays go through one, and the
-/// benchmark of the renderer's Embree limit replays rays through them.
+/// A stream of rays and their hits for Embree 3's stream query `rtcIntersect1M`, which
+/// packs the rays into packets of its own: the benchmark of the renderer's Embree limit
+/// replays closest-hit rays through one.
+#[cfg(embree3)]
 #[derive(Default)]
 pub struct RayStream {
     rays: Vec<sys::RTCRayHit>,
 }
 
+#[cfg(embree3)]
 impl RayStream {
     /// Replaces the stream's rays (untraceable ones become empty segments, which Embree
     /// reports as misses).
@@ -1050,21 +1051,92 @@ impl RayStream {
         self.rays.is_empty()
     }
 
+    /// How many rays hit something (after [`Scene::intersect_stream`]).
+    pub fn count_hits(&self) -> usize {
+        let hit = |r: &&sys::RTCRayHit| r.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID;
+        self.rays.iter().filter(hit).count()
+    }
+}
+
+/// A stream of rays for occlusion queries: Embree 3 traces it with `rtcOccluded1M`, which
+/// packs the rays into packets of its own; Embree 4, which no longer has stream queries,
+/// ray by ray. Each ray is Embree's 48-byte `RTCRay` with no room for a hit, which an
+/// occlusion query does not write: the renderer's shadow rays go through one, pushed
+/// while each group's state is still in the cache.
+#[derive(Default)]
+pub struct OcclusionStream {
+    rays: Vec<sys::RTCRay>,
+}
+
+impl OcclusionStream {
+    /// Empties the stream, keeping its memory.
+    pub fn clear(&mut self) {
+        self.rays.clear();
+    }
+
+    /// Appends a ray (an untraceable one as an empty segment, which Embree reports as not
+    /// blocked).
+    #[inline]
+    pub fn push(&mut self, ray: &Ray) {
+        let empty = Ray {
+            org: Vec3::ZERO,
+            dir: Vec3::Z,
+            tnear: 0.0,
+            tfar: -1.0,
+        };
+        let traced = if ray.is_traceable() { ray } else { &empty };
+        self.rays.push(to_rtc_ray(traced));
+    }
+
+    /// Appends a ray over `[0, tfar]` from its origin and direction as Embree stores them
+    /// (the fourth components, `tnear` and the time, are 0), for a caller that checked
+    /// it is traceable with every lane of its packet at once ([`FLT_LARGE`]; Debian's
+    /// Embree aborts on any other ray).
+    #[inline]
+    pub fn push_traceable(&mut self, org: glam::Vec4, dir: glam::Vec4, tfar: f32) {
+        debug_assert!(traceable(
+            org.truncate().into(),
+            dir.truncate().into(),
+            org.w,
+            tfar
+        ));
+        self.rays.push(sys::RTCRay {
+            org_x: org.x,
+            org_y: org.y,
+            org_z: org.z,
+            tnear: org.w,
+            dir_x: dir.x,
+            dir_y: dir.y,
+            dir_z: dir.z,
+            time: dir.w,
+            tfar,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        });
+    }
+
+    /// How many rays the stream holds.
+    pub fn len(&self) -> usize {
+        self.rays.len()
+    }
+
+    /// Whether the stream is empty.
+    pub fn is_empty(&self) -> bool {
+        self.rays.is_empty()
+    }
+
     /// Whether ray `i` is blocked (after [`Scene::occluded_stream`]).
     #[inline]
     pub fn blocked(&self, i: usize) -> bool {
-        self.rays[i].ray.tfar == f32::NEG_INFINITY
+        self.rays[i].tfar == f32::NEG_INFINITY
     }
 
-    /// How many rays hit something (after [`Scene::intersect_stream`]) or are blocked
-    /// (after [`Scene::occluded_stream`]).
-    pub fn count_hits(&self, occlusion: bool) -> usize {
+    /// How many rays are blocked (after [`Scene::occluded_stream`]).
+    pub fn count_blocked(&self) -> usize {
         self.rays
             .iter()
-            .filter(|r| match occlusion {
-                true => r.ray.tfar == f32::NEG_INFINITY,
-                false => r.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID,
-            })
+            .filter(|r| r.tfar == f32::NEG_INFINITY)
             .count()
     }
 }
@@ -1091,17 +1163,23 @@ impl Scene {
     }
 
     /// Occlusion of every ray of the stream, `chunk` rays per `rtcOccluded1M` call.
-    pub fn occluded_stream(&self, stream: &mut RayStream, chunk: usize, coherence: Coherence) {
-        let stride = std::mem::size_of::<sys::RTCRayHit>();
+    pub fn occluded_stream(
+        &self,
+        stream: &mut OcclusionStream,
+        chunk: usize,
+        coherence: Coherence,
+    ) {
+        let stride = std::mem::size_of::<sys::RTCRay>();
         for part in stream.rays.chunks_mut(chunk.max(1)) {
             let mut ctx = query::Ctx::new(coherence);
-            // SAFETY: as for `intersect_stream`; Embree reads and writes only the ray part
-            // (the first field) of each `RTCRayHit`, `stride` bytes apart.
+            // SAFETY: the scene is committed; `part` holds `part.len()` consecutive,
+            // initialised `RTCRay`s `stride` bytes apart, valid for the call; Embree
+            // writes only their `tfar`.
             unsafe {
                 sys::rtcOccluded1M(
                     self.raw,
                     &mut ctx.0,
-                    part.as_mut_ptr().cast::<sys::RTCRay>(),
+                    part.as_mut_ptr(),
                     part.len() as u32,
                     stride,
                 )
@@ -1114,11 +1192,16 @@ impl Scene {
 impl Scene {
     /// Occlusion of every ray of the stream, one `rtcOccluded1` each (Embree 4 has no
     /// stream queries; `chunk` is Embree 3's).
-    pub fn occluded_stream(&self, stream: &mut RayStream, _chunk: usize, coherence: Coherence) {
+    pub fn occluded_stream(
+        &self,
+        stream: &mut OcclusionStream,
+        _chunk: usize,
+        coherence: Coherence,
+    ) {
         for r in stream.rays.iter_mut() {
             let mut args = query::occluded_args(coherence);
             // SAFETY: the scene is committed; `args` and the ray are valid for the call.
-            unsafe { sys::rtcOccluded1(self.raw, &mut r.ray, &mut args) };
+            unsafe { sys::rtcOccluded1(self.raw, r, &mut args) };
         }
     }
 }
@@ -1229,6 +1312,15 @@ impl<const N: usize> PacketStream<N> {
             v: arr(&self.v),
         }
     }
+
+    /// Which lanes of the packet pushed at `at` read as blocked after
+    /// [`Scene::occluded_packets`] (Embree set their `tfar` to −∞). A lane the push
+    /// skipped reads as blocked too: mask the answer with the lanes pushed.
+    #[cfg(embree3)]
+    #[inline]
+    pub fn blocked<const W: usize>(&self, at: usize) -> [bool; W] {
+        std::array::from_fn(|k| self.tfar[at + k] == f32::NEG_INFINITY)
+    }
 }
 
 #[cfg(embree3)]
@@ -1272,6 +1364,35 @@ impl Scene {
         // and each array's size a multiple of 16 bytes), which stays borrowed and
         // unmoved for the call.
         unsafe { sys::rtcIntersectNp(self.raw, &mut ctx.0, &rays, s.len as u32) };
+    }
+
+    /// Occlusion of every ray of the packet stream (`rtcOccludedNp`): Embree sets a
+    /// blocked ray's `tfar` to −∞ ([`PacketStream::blocked`]).
+    pub fn occluded_packets<const N: usize>(
+        &self,
+        stream: &mut PacketStream<N>,
+        coherence: Coherence,
+    ) {
+        let s = stream;
+        let rays = sys::RTCRayNp {
+            org_x: s.org[0].as_mut_ptr(),
+            org_y: s.org[1].as_mut_ptr(),
+            org_z: s.org[2].as_mut_ptr(),
+            tnear: s.tnear.as_mut_ptr(),
+            dir_x: s.dir[0].as_mut_ptr(),
+            dir_y: s.dir[1].as_mut_ptr(),
+            dir_z: s.dir[2].as_mut_ptr(),
+            time: s.time.as_mut_ptr(),
+            tfar: s.tfar.as_mut_ptr(),
+            mask: s.mask.as_mut_ptr(),
+            id: s.id.as_mut_ptr(),
+            flags: s.flags.as_mut_ptr(),
+        };
+        let mut ctx = query::Ctx::new(coherence);
+        // SAFETY: as in `intersect_packets`: every pointer points to an array of N ≥
+        // `s.len` elements of the stream, 16-byte aligned, borrowed and unmoved for the
+        // call.
+        unsafe { sys::rtcOccludedNp(self.raw, &mut ctx.0, &rays, s.len as u32) };
     }
 }
 

@@ -80,6 +80,17 @@ pub trait Width: Float {
 /// The camera rays of the groups in flight, traced as one stream.
 pub type CameraStream = accel::PacketStream<PATHS_IN_FLIGHT>;
 
+/// The lanes whose ray `org + t·dir`, t in `[0, tfar]`, Embree can trace
+/// ([`accel::Ray::is_traceable`]), all at once: every coordinate within ±[`FLT_LARGE`]
+/// (so not NaN or infinite) and `tfar` not NaN.
+///
+/// [`FLT_LARGE`]: accel::FLT_LARGE
+#[inline(always)]
+fn traceable<F: Float>(org: &V3<F>, dir: &V3<F>, tfar: F) -> F::Mask {
+    let ok = |x: F| x.abs().le(F::splat(accel::FLT_LARGE));
+    ok(org.x) & ok(org.y) & ok(org.z) & ok(dir.x) & ok(dir.y) & ok(dir.z) & tfar.eq(tfar)
+}
+
 /// One path's ray over `[0, tfar]`.
 #[inline(always)]
 fn ray1(org: &V3<f32>, dir: &V3<f32>, tfar: f32) -> Ray {
@@ -314,9 +325,9 @@ struct Group<F: Float> {
     paths: Paths<F>,
     shadows: Shadows<F>,
     live: F::Mask,
-    /// The closest hits of the paths' camera rays, if they were traced ahead of the
-    /// step ([`Tracer::trace_cameras`]).
-    camera_hits: Option<Hits<F>>,
+    /// Where the paths' camera rays are in the camera stream, if they were traced ahead
+    /// of the step ([`Tracer::trace_cameras`]).
+    camera_at: Option<usize>,
 }
 
 impl<F: Float> Group<F> {
@@ -325,7 +336,7 @@ impl<F: Float> Group<F> {
             paths,
             shadows: Shadows::default(),
             live: F::Mask::splat(false),
-            camera_hits: None,
+            camera_at: None,
         }
     }
 }
@@ -337,10 +348,13 @@ pub struct Tracer<F: Width> {
     /// Paths split off at dispersive refractions, waiting for a lane.
     pending: Vec<Paths<f32>>,
     /// The groups' shadow rays, in group and lane order.
-    shadow_rays: accel::RayStream,
+    shadow_rays: accel::OcclusionStream,
     /// The camera rays of the groups that start together, in group order (Embree 3).
     #[cfg_attr(embree4, allow(dead_code))]
     camera_rays: Box<CameraStream>,
+    /// Live paths whose camera rays are queued in `camera_rays`.
+    #[cfg_attr(embree4, allow(dead_code))]
+    camera_queued: u64,
     /// Packet lanes that carried a ray (W > 1).
     pub lanes_used: u64,
     /// Lanes of all packets traced (W per query, W > 1).
@@ -378,8 +392,9 @@ impl<F: Width> Default for Tracer<F> {
         Tracer {
             groups: (0..F::GROUPS).map(|_| Group::new(Paths::empty())).collect(),
             pending: Vec::new(),
-            shadow_rays: accel::RayStream::default(),
+            shadow_rays: accel::OcclusionStream::default(),
             camera_rays: Box::default(),
+            camera_queued: 0,
             lanes_used: 0,
             lanes_total: 0,
             medium_lanes_used: 0,
@@ -401,9 +416,13 @@ impl<F: Width> Tracer<F> {
     /// at its camera wavelengths (balance-heuristic weighted, see [`super::radiance`]),
     /// `lambdas[slot]` the wavelengths.
     ///
-    /// Each round steps every group once, then traces the shadow rays of all groups,
+    /// Each round refills the free lanes and traces the camera rays of the groups that
+    /// start together, steps every group once, then traces the shadow rays of all groups,
     /// then hands in the paths that ended: each path's radiance takes the same additions
-    /// in the same order as if its group ran alone.
+    /// in the same order as if its group ran alone. The camera and shadow streams are
+    /// filled group by group right after the refill or the step that made the rays, while
+    /// the group's state is still in the first-level data cache, which 32 groups of
+    /// 1.6 KB (width 4) do not fit.
     #[allow(clippy::too_many_arguments)]
     pub fn run<const MEDIA: bool>(
         &mut self,
@@ -416,21 +435,37 @@ impl<F: Width> Tracer<F> {
         stats: &mut PathStats,
     ) {
         let sort = self.sort && F::GROUPS > 1 && !self.lockstep;
+        let stream_cameras = cfg!(embree3) && sort && self.stream_cameras;
+        // Without media the shadow rays of all groups go to Embree as one stream, each
+        // group's pushed right after its step, while its state is in the cache.
+        let stream_shadows = !MEDIA && F::GROUPS > 1;
         loop {
             if sort {
                 // Free lanes gathered first: the refill then starts its camera paths in
                 // whole groups, and a path moves into a free lane instead of trading.
                 self.sort_lanes(|g| !g.paths.alive);
+                self.camera_rays.clear();
                 for k in 0..F::GROUPS {
                     self.refill(k, scene, opts, seed, work, lambdas);
+                    // Queued while the refill's writes are in the cache (with media,
+                    // after the paths in media are gathered).
+                    if stream_cameras && !MEDIA {
+                        self.queue_cameras(k);
+                    }
                 }
                 if MEDIA {
                     self.sort_lanes(|g| g.paths.alive & F::Mask::from_fn(|i| g.paths.in_medium(i)));
+                    if stream_cameras {
+                        (0..F::GROUPS).for_each(|k| self.queue_cameras(k));
+                    }
                 }
                 #[cfg(embree3)]
-                if self.stream_cameras {
+                if stream_cameras {
                     self.trace_cameras(scene);
                 }
+            }
+            if stream_shadows {
+                self.shadow_rays.clear();
             }
             let mut any = false;
             for k in 0..F::GROUPS {
@@ -442,19 +477,52 @@ impl<F: Width> Tracer<F> {
                 if live.any() {
                     any = true;
                     self.advance::<MEDIA>(k, scene, opts, stats);
+                    if stream_shadows {
+                        self.queue_shadows(k);
+                    }
                 }
             }
             if !any {
                 break;
             }
-            if !MEDIA {
+            if stream_shadows {
+                let n = self.shadow_rays.len();
+                if n > 0 {
+                    let stream = &mut self.shadow_rays;
+                    scene
+                        .accel
+                        .occluded_stream(stream, n, Coherence::Incoherent);
+                }
+            } else if !MEDIA {
                 self.trace_shadows(scene);
             }
-            for g in &self.groups {
-                for i in (g.live & !g.paths.alive).iter() {
-                    let slot = g.paths.slot[i] as usize;
-                    g.paths.add_to(i, &mut results[slot]);
+            self.hand_in(results);
+        }
+    }
+
+    /// Adds the stream's unblocked shadow rays to their paths (scenes without media, W >
+    /// 1), and hands in the paths that ended this round, group by group in one pass.
+    #[inline(always)]
+    fn hand_in(&mut self, results: &mut [Vec4]) {
+        let mut r = 0;
+        for g in self.groups.iter_mut() {
+            let s = &mut g.shadows;
+            // (W = 1 traced its shadow rays alone; with media they are traced in the step.)
+            if F::GROUPS > 1 && s.active.any() {
+                let mut bits = 0;
+                for i in s.active.iter() {
+                    bits |= (self.shadow_rays.blocked(r) as u32) << i;
+                    r += 1;
                 }
+                let blocked = F::Mask::from_fn(|i| bits >> i & 1 != 0);
+                g.paths
+                    .l
+                    .set_where(s.active & !blocked, g.paths.l + s.contribution);
+                s.active = F::Mask::splat(false);
+            }
+            for i in (g.live & !g.paths.alive).iter() {
+                let slot = g.paths.slot[i] as usize;
+                g.paths.add_to(i, &mut results[slot]);
             }
         }
     }
@@ -513,36 +581,44 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// Traces the camera rays of the groups whose live paths all start at the camera
-    /// (after [`Self::sort_lanes`], every group the refill filled) as one coherent
-    /// stream, and keeps each group's hits for its step. Embree packs the stream into
-    /// packets of its widest vectors and traverses them together, faster than 4- or
-    /// 8-wide packets: `stokes bench limit` on an AMD EPYC Zen 3 replays a Cornell box's
-    /// camera rays at 36 M rays/s as a coherent stream, 22 as 4-wide and 31 as 8-wide
-    /// coherent packets.
+    /// Queues the camera rays of group `k` in the round's camera stream if all its live
+    /// paths start at the camera (after [`Self::sort_lanes`], every group the refill
+    /// filled).
+    #[inline(always)]
+    fn queue_cameras(&mut self, k: usize) {
+        let g = &mut self.groups[k];
+        let (live, p) = (g.paths.alive, &g.paths);
+        if live.any() && (live & !p.at_camera).none() {
+            let inf = F::splat(f32::INFINITY);
+            g.camera_at = Some(F::push_rays(
+                &mut self.camera_rays,
+                &p.org,
+                &p.dir,
+                inf,
+                live,
+            ));
+            self.camera_queued += live.bits().count_ones() as u64;
+        }
+    }
+
+    /// Traces the queued camera rays as one coherent stream; each group's step reads its
+    /// hits there. Embree packs the stream into packets of its widest vectors and
+    /// traverses them together, faster than 4- or 8-wide packets: `stokes bench limit` on
+    /// an AMD EPYC Zen 3 replays a Cornell box's camera rays at 36 M rays/s as a coherent
+    /// stream, 22 as 4-wide and 31 as 8-wide coherent packets.
     #[cfg(embree3)]
     fn trace_cameras(&mut self, scene: &Scene) {
         let stream = &mut *self.camera_rays;
-        stream.clear();
-        let mut at = [None; PATHS_IN_FLIGHT];
-        for (k, g) in self.groups.iter().enumerate() {
-            let (live, p) = (g.paths.alive, &g.paths);
-            if live.any() && (live & !p.at_camera).none() {
-                let inf = F::splat(f32::INFINITY);
-                at[k] = Some(F::push_rays(stream, &p.org, &p.dir, inf, live));
-            }
-        }
         if stream.len() <= F::WIDTH {
-            // One packet: traced as it is, in its step.
-            return;
-        }
-        scene.accel.intersect_packets(stream, Coherence::Coherent);
-        for (g, &at) in self.groups.iter_mut().zip(&at) {
-            if let Some(at) = at {
-                g.camera_hits = Some(F::stream_hits(stream, at));
-                self.camera_rays_streamed += g.paths.alive.bits().count_ones() as u64;
+            // One packet at most: traced as it is, in its step.
+            if !stream.is_empty() {
+                self.groups.iter_mut().for_each(|g| g.camera_at = None);
             }
+        } else {
+            scene.accel.intersect_packets(stream, Coherence::Coherent);
+            self.camera_rays_streamed += self.camera_queued;
         }
+        self.camera_queued = 0;
     }
 
     /// Bit k for every group k.
@@ -680,7 +756,7 @@ impl<F: Width> Tracer<F> {
         let Group {
             paths,
             shadows,
-            camera_hits,
+            camera_at,
             ..
         } = &mut self.groups[k];
         let live = paths.alive;
@@ -696,8 +772,8 @@ impl<F: Width> Tracer<F> {
             RayLog::push(&mut log.camera, camera, &paths.org, &paths.dir, inf);
             RayLog::push(&mut log.bounce, live & !camera, &paths.org, &paths.dir, inf);
         }
-        let hits = match camera_hits.take() {
-            Some(hits) => hits,
+        let hits = match camera_at.take() {
+            Some(at) => F::stream_hits(&self.camera_rays, at),
             None => F::intersect(accel, &paths.org, &paths.dir, inf, live, coherence),
         };
         if F::WIDTH > 1 {
@@ -741,56 +817,39 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// The shadow rays every group asked for (scenes without media): each unblocked one
-    /// adds its contribution to its path.
+    /// Queues group `k`'s shadow rays in the round's stream (scenes without media, W > 1),
+    /// in lane order after those of the groups before it.
+    #[inline(always)]
+    fn queue_shadows(&mut self, k: usize) {
+        let s = &self.groups[k].shadows;
+        if let Some(log) = self.log.as_deref_mut() {
+            RayLog::push(&mut log.shadow, s.active, &s.org, &s.dir, s.tfar);
+        }
+        // Checked and laid out as Embree wants them for all lanes at once; an untraceable
+        // ray goes as an empty segment, which Embree reports as not blocked.
+        let ok = traceable(&s.org, &s.dir, s.tfar);
+        let (zero, one) = (F::splat(0.0), F::splat(1.0));
+        let keep = |v: F, empty: F| F::select(ok, v, empty);
+        let (o, d) = (&s.org, &s.dir);
+        let org = F::rows([keep(o.x, zero), keep(o.y, zero), keep(o.z, zero), zero]);
+        let dir = F::rows([keep(d.x, zero), keep(d.y, zero), keep(d.z, one), zero]);
+        let tfar = keep(s.tfar, F::splat(-1.0));
+        for i in s.active.iter() {
+            self.shadow_rays.push_traceable(org[i], dir[i], tfar.get(i));
+        }
+    }
+
+    /// The shadow rays of a tracer with one group (W = 1, scenes without media), traced
+    /// as they are; each unblocked one adds its contribution to its path.
     #[inline(always)]
     fn trace_shadows(&mut self, scene: &Scene) {
         let accel = &scene.accel;
-        let groups = &mut self.groups;
-        if let Some(log) = self.log.as_deref_mut() {
-            for s in groups.iter().map(|g| &g.shadows) {
+        for g in self.groups.iter_mut().filter(|g| g.shadows.active.any()) {
+            let s = &mut g.shadows;
+            if let Some(log) = self.log.as_deref_mut() {
                 RayLog::push(&mut log.shadow, s.active, &s.org, &s.dir, s.tfar);
             }
-        }
-        if F::GROUPS == 1 {
-            for g in groups.iter_mut().filter(|g| g.shadows.active.any()) {
-                let s = &mut g.shadows;
-                let blocked = F::occluded(accel, &s.org, &s.dir, s.tfar, s.active);
-                g.paths
-                    .l
-                    .set_where(s.active & !blocked, g.paths.l + s.contribution);
-                if F::WIDTH > 1 {
-                    self.lanes_used += s.active.bits().count_ones() as u64;
-                    self.lanes_total += F::WIDTH as u64;
-                }
-                s.active = F::Mask::splat(false);
-            }
-            return;
-        }
-        let rays = groups.iter().flat_map(|g| {
-            let s = &g.shadows;
-            s.active.iter().map(|i| Ray {
-                org: s.org.path(i),
-                dir: s.dir.path(i),
-                tnear: 0.0,
-                tfar: s.tfar.get(i),
-            })
-        });
-        self.shadow_rays.fill(rays);
-        if self.shadow_rays.is_empty() {
-            return;
-        }
-        let n = self.shadow_rays.len();
-        accel.occluded_stream(&mut self.shadow_rays, n, Coherence::Incoherent);
-        let mut r = 0;
-        for g in groups.iter_mut().filter(|g| g.shadows.active.any()) {
-            let s = &mut g.shadows;
-            let mut bits = 0;
-            for i in s.active.iter() {
-                bits |= (self.shadow_rays.blocked(r) as u32) << i;
-                r += 1;
-            }
-            let blocked = F::Mask::from_fn(|i| bits >> i & 1 != 0);
+            let blocked = F::occluded(accel, &s.org, &s.dir, s.tfar, s.active);
             g.paths
                 .l
                 .set_where(s.active & !blocked, g.paths.l + s.contribution);
