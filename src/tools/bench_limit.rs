@@ -188,6 +188,8 @@ type Method = fn(&Accel, &[Ray], bool);
 
 /// Every way Embree offers here.
 fn methods() -> Vec<(&'static str, Method)> {
+    // Embree 4 has no stream queries to add below.
+    #[cfg_attr(embree4, allow(unused_mut))]
     let mut m: Vec<(&'static str, Method)> = vec![
         ("single", |a, r, occ| chunks(r, 256, |c| single(a, c, occ))),
         ("packet4", |a, r, occ| {
@@ -210,6 +212,12 @@ fn methods() -> Vec<(&'static str, Method)> {
         }));
         m.push(("stream256-coherent", |a, r, occ| {
             chunks(r, 256, |c| stream(a, c, occ, Coherence::Coherent))
+        }));
+        m.push(("soa128", |a, r, occ| {
+            chunks(r, 256, |c| soa_stream(a, c, occ, Coherence::Incoherent))
+        }));
+        m.push(("soa128-coherent", |a, r, occ| {
+            chunks(r, 256, |c| soa_stream(a, c, occ, Coherence::Coherent))
         }));
     }
     m
@@ -267,13 +275,51 @@ fn packets8(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
 
 #[cfg(embree3)]
 fn stream(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
+    if occlusion {
+        // As the renderer traces its shadow rays.
+        let mut s = crate::accel::OcclusionStream::default();
+        rays.iter().for_each(|r| s.push(r));
+        a.occluded_stream(&mut s, rays.len(), c);
+        return s.count_blocked() as u64;
+    }
     let mut s = crate::accel::RayStream::default();
     s.fill(rays.iter().copied());
-    match occlusion {
-        true => a.occluded_stream(&mut s, rays.len(), c),
-        false => a.intersect_stream(&mut s, rays.len(), c),
+    a.intersect_stream(&mut s, rays.len(), c);
+    s.count_hits() as u64
+}
+
+/// Streams in structure-of-arrays form of the renderer's paths in flight, each filled
+/// with 4-wide packets as the renderer fills its camera and shadow streams
+/// (`rtcIntersectNp`, `rtcOccludedNp`).
+#[cfg(embree3)]
+fn soa_stream(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
+    let mut s = Box::<crate::integrator::trace::CameraStream>::default();
+    let mut hits = 0;
+    for part in rays.chunks(crate::integrator::trace::PATHS_IN_FLIGHT) {
+        s.clear();
+        let pushed: Vec<(usize, [bool; 4])> = part
+            .chunks(4)
+            .map(|p| {
+                let (soa, active) = RaysN::<4>::from_rays(p);
+                (s.push(&soa, active), active)
+            })
+            .collect();
+        let at = pushed.iter().map(|p| p.0);
+        let count = |b: [bool; 4]| b.iter().filter(|&&b| b).count() as u64;
+        if occlusion {
+            a.occluded_packets(&mut s, c);
+            let blocked = |(at, active): (usize, [bool; 4])| {
+                let b = s.blocked::<4>(at);
+                count(std::array::from_fn(|k| b[k] & active[k]))
+            };
+            hits += pushed.iter().map(|&p| blocked(p)).sum::<u64>();
+        } else {
+            a.intersect_packets(&mut s, c);
+            let hit = |at: usize| count(s.hits::<4>(at).geom.map(|g| g != u32::MAX));
+            hits += at.map(hit).sum::<u64>();
+        }
     }
-    s.count_hits(occlusion) as u64
+    hits
 }
 
 /// The report as a table.
