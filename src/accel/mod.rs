@@ -1297,6 +1297,32 @@ impl<const N: usize> PacketStream<N> {
         at
     }
 
+    /// Appends a packet of W rays whose caller checked, for every lane at once, which
+    /// Embree can trace: each lane's `tfar` is its segment's end, or −∞ (< `tnear`) for a
+    /// lane Embree is to skip. Returns where the packet starts, for [`Self::hits`].
+    /// Panics if the stream is full.
+    #[inline]
+    pub fn push_checked<const W: usize>(&mut self, rays: &RaysN<W>) -> usize {
+        let at = self.len;
+        let end = at + W;
+        assert!(end <= N, "a stream of {N} rays cannot take {end}");
+        for c in 0..3 {
+            self.org[c][at..end].copy_from_slice(&rays.org[c]);
+            self.dir[c][at..end].copy_from_slice(&rays.dir[c]);
+        }
+        self.tfar[at..end].copy_from_slice(&rays.tfar);
+        debug_assert!((0..W).all(|k| rays.tfar[k] == f32::NEG_INFINITY
+            || traceable(
+                [rays.org[0][k], rays.org[1][k], rays.org[2][k]],
+                [rays.dir[0][k], rays.dir[1][k], rays.dir[2][k]],
+                0.0,
+                rays.tfar[k],
+            )));
+        self.geom[at..end].fill(sys::RTC_INVALID_GEOMETRY_ID);
+        self.len = end;
+        at
+    }
+
     /// The hits of the packet pushed at `at`, after [`Scene::intersect_packets`]; a lane
     /// that was not traced reads as a miss at t = −∞.
     pub fn hits<const W: usize>(&self, at: usize) -> HitsN<W> {

@@ -64,7 +64,8 @@ pub trait Width: Float {
         active: Self::Mask,
     ) -> Self::Mask;
     /// Appends the rays `org + t·dir`, t in `[0, tfar]`, of the lanes in `active` to
-    /// `stream` as one packet of W (the other lanes skipped); returns where it starts.
+    /// `stream` as one packet of W (the other lanes, and those Embree cannot trace,
+    /// skipped: checked for all lanes at once); returns where it starts.
     fn push_rays(
         stream: &mut CameraStream,
         org: &V3<Self>,
@@ -139,12 +140,13 @@ impl Width for f32 {
         tfar: f32,
         active: bool,
     ) -> usize {
+        let ok = active & traceable(org, dir, tfar);
         let rays = accel::RaysN {
             org: [[org.x], [org.y], [org.z]],
             dir: [[dir.x], [dir.y], [dir.z]],
-            tfar: [tfar],
+            tfar: [if ok { tfar } else { f32::NEG_INFINITY }],
         };
-        stream.push(&rays, [active])
+        stream.push_checked(&rays)
     }
 
     #[inline(always)]
@@ -255,8 +257,10 @@ macro_rules! packet_width {
                 tfar: $f,
                 active: <$f as Float>::Mask,
             ) -> usize {
-                let valid = Lanes::from_fn(|k| active.get(k));
-                stream.push(&$soa::rays(org, dir, tfar), valid)
+                let ok = active & traceable(org, dir, tfar);
+                let skip = <$f as Float>::splat(f32::NEG_INFINITY);
+                let tfar = <$f as Float>::select(ok, tfar, skip);
+                stream.push_checked(&$soa::rays(org, dir, tfar))
             }
 
             #[inline(always)]
@@ -601,11 +605,13 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// Traces the queued camera rays as one coherent stream; each group's step reads its
-    /// hits there. Embree packs the stream into packets of its widest vectors and
-    /// traverses them together, faster than 4- or 8-wide packets: `stokes bench limit` on
-    /// an AMD EPYC Zen 3 replays a Cornell box's camera rays at 36 M rays/s as a coherent
-    /// stream, 22 as 4-wide and 31 as 8-wide coherent packets.
+    /// Traces the queued camera rays as one coherent stream (`rtcIntersectNp`); each
+    /// group's step reads its hits there. Embree packs the stream into packets of its
+    /// widest vectors and traverses them together: `stokes bench limit` on an AMD EPYC
+    /// Zen 3 replays a Cornell box's camera rays at 25–29 M rays/s as this SoA stream, 22
+    /// as 4-wide coherent packets. As an AoS stream (`rtcIntersect1M`) they replay at
+    /// 32–37, but in the renderer that measured no faster (README, "Streams filled while
+    /// each group is hot").
     #[cfg(embree3)]
     fn trace_cameras(&mut self, scene: &Scene) {
         let stream = &mut *self.camera_rays;
@@ -879,4 +885,63 @@ pub fn trace_one(
         tracer.run::<false>(scene, opts, 0, &mut none, &mut results, &mut lambdas, stats);
     }
     results[0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rays on both sides of each of Embree's limits: NaN, infinite and huge components
+    /// (within and beyond ±`FLT_LARGE`), NaN, infinite and negative segment ends.
+    fn rays() -> Vec<Ray> {
+        let good = Ray::new(Vec3::new(0.5, 1.0, -3.0), Vec3::Z);
+        let mut v = vec![good];
+        let big = accel::FLT_LARGE;
+        for x in [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e30,
+            -2e18,
+            big,
+            -big,
+        ] {
+            for i in 0..3 {
+                let mut r = good;
+                r.org[i] = x;
+                v.push(r);
+                let mut r = good;
+                r.dir[i] = x;
+                v.push(r);
+            }
+        }
+        for tfar in [f32::NAN, f32::INFINITY, -1.0, 0.0] {
+            v.push(Ray { tfar, ..good });
+        }
+        v
+    }
+
+    /// The tracer's all-lanes-at-once check accepts exactly the rays the safe layer
+    /// traces ([`Ray::is_traceable`]), in every lane of every width.
+    #[test]
+    fn traceable_lanes_match_the_ray_check() {
+        fn check<F: Float>(rays: &[Ray]) {
+            for (n, chunk) in rays.chunks(F::WIDTH).enumerate() {
+                let r = |i: usize| chunk[i.min(chunk.len() - 1)];
+                let lane = |f: fn(&Ray) -> f32| F::from_fn(|i| f(&r(i)));
+                let org = V3::new(lane(|r| r.org.x), lane(|r| r.org.y), lane(|r| r.org.z));
+                let dir = V3::new(lane(|r| r.dir.x), lane(|r| r.dir.y), lane(|r| r.dir.z));
+                let ok = traceable(&org, &dir, lane(|r| r.tfar));
+                for i in 0..F::WIDTH {
+                    let want = r(i).is_traceable();
+                    assert_eq!(ok.get(i), want, "width {}, chunk {n}: {:?}", F::WIDTH, r(i));
+                }
+            }
+        }
+        let rays = rays();
+        assert!(rays.iter().any(|r| r.is_traceable()) && rays.iter().any(|r| !r.is_traceable()));
+        check::<f32>(&rays);
+        check::<F4>(&rays);
+        check::<F8>(&rays);
+    }
 }
