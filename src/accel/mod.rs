@@ -590,6 +590,20 @@ pub struct RaysN<const N: usize> {
     pub tfar: [f32; N],
 }
 
+impl<const N: usize> RaysN<N> {
+    /// Ray `k`'s origin.
+    #[inline]
+    fn origin(&self, k: usize) -> [f32; 3] {
+        [self.org[0][k], self.org[1][k], self.org[2][k]]
+    }
+
+    /// Ray `k`'s direction.
+    #[inline]
+    fn direction(&self, k: usize) -> [f32; 3] {
+        [self.dir[0][k], self.dir[1][k], self.dir[2][k]]
+    }
+}
+
 /// Four rays for `intersect4`/`occluded4`.
 pub type Rays4 = RaysN<4>;
 /// Eight rays for `intersect8`/`occluded8`.
@@ -928,13 +942,7 @@ impl RayHit8 {
         r.id = [0, 1, 2, 3, 4, 5, 6, 7];
         p.0.hit.geomID = [sys::RTC_INVALID_GEOMETRY_ID; 8];
         let valid = Valid8(std::array::from_fn(|k| {
-            let ok = active[k]
-                && traceable(
-                    [rays.org[0][k], rays.org[1][k], rays.org[2][k]],
-                    [rays.dir[0][k], rays.dir[1][k], rays.dir[2][k]],
-                    0.0,
-                    rays.tfar[k],
-                );
+            let ok = active[k] && traceable(rays.origin(k), rays.direction(k), 0.0, rays.tfar[k]);
             if ok {
                 -1
             } else {
@@ -1275,26 +1283,12 @@ impl<const N: usize> PacketStream<N> {
     /// `tnear` is 0 from the start, and Embree does not write it);
     /// returns where the packet starts, for [`Self::hits`]. Panics if the stream is full.
     pub fn push<const W: usize>(&mut self, rays: &RaysN<W>, active: [bool; W]) -> usize {
-        let at = self.len;
-        let end = at + W;
-        assert!(end <= N, "a stream of {N} rays cannot take {end}");
-        for c in 0..3 {
-            self.org[c][at..end].copy_from_slice(&rays.org[c]);
-            self.dir[c][at..end].copy_from_slice(&rays.dir[c]);
-        }
+        let mut checked = *rays;
         for (k, &active) in active.iter().enumerate() {
-            let on = active
-                && traceable(
-                    [rays.org[0][k], rays.org[1][k], rays.org[2][k]],
-                    [rays.dir[0][k], rays.dir[1][k], rays.dir[2][k]],
-                    0.0,
-                    rays.tfar[k],
-                );
-            self.tfar[at + k] = if on { rays.tfar[k] } else { f32::NEG_INFINITY };
+            let on = active && traceable(rays.origin(k), rays.direction(k), 0.0, rays.tfar[k]);
+            checked.tfar[k] = if on { rays.tfar[k] } else { f32::NEG_INFINITY };
         }
-        self.geom[at..end].fill(sys::RTC_INVALID_GEOMETRY_ID);
-        self.len = end;
-        at
+        self.push_checked(&checked)
     }
 
     /// Appends a packet of W rays whose caller checked, for every lane at once, which
@@ -1312,12 +1306,7 @@ impl<const N: usize> PacketStream<N> {
         }
         self.tfar[at..end].copy_from_slice(&rays.tfar);
         debug_assert!((0..W).all(|k| rays.tfar[k] == f32::NEG_INFINITY
-            || traceable(
-                [rays.org[0][k], rays.org[1][k], rays.org[2][k]],
-                [rays.dir[0][k], rays.dir[1][k], rays.dir[2][k]],
-                0.0,
-                rays.tfar[k],
-            )));
+            || traceable(rays.origin(k), rays.direction(k), 0.0, rays.tfar[k])));
         self.geom[at..end].fill(sys::RTC_INVALID_GEOMETRY_ID);
         self.len = end;
         at
@@ -1336,6 +1325,25 @@ impl<const N: usize> PacketStream<N> {
             prim: words(&self.prim),
             u: arr(&self.u),
             v: arr(&self.v),
+        }
+    }
+
+    /// Embree's SoA view of the stream's rays: a pointer to each of its arrays.
+    #[cfg(embree3)]
+    fn ray_np(&mut self) -> sys::RTCRayNp {
+        sys::RTCRayNp {
+            org_x: self.org[0].as_mut_ptr(),
+            org_y: self.org[1].as_mut_ptr(),
+            org_z: self.org[2].as_mut_ptr(),
+            tnear: self.tnear.as_mut_ptr(),
+            dir_x: self.dir[0].as_mut_ptr(),
+            dir_y: self.dir[1].as_mut_ptr(),
+            dir_z: self.dir[2].as_mut_ptr(),
+            time: self.time.as_mut_ptr(),
+            tfar: self.tfar.as_mut_ptr(),
+            mask: self.mask.as_mut_ptr(),
+            id: self.id.as_mut_ptr(),
+            flags: self.flags.as_mut_ptr(),
         }
     }
 
@@ -1359,20 +1367,7 @@ impl Scene {
     ) {
         let s = stream;
         let rays = sys::RTCRayHitNp {
-            ray: sys::RTCRayNp {
-                org_x: s.org[0].as_mut_ptr(),
-                org_y: s.org[1].as_mut_ptr(),
-                org_z: s.org[2].as_mut_ptr(),
-                tnear: s.tnear.as_mut_ptr(),
-                dir_x: s.dir[0].as_mut_ptr(),
-                dir_y: s.dir[1].as_mut_ptr(),
-                dir_z: s.dir[2].as_mut_ptr(),
-                time: s.time.as_mut_ptr(),
-                tfar: s.tfar.as_mut_ptr(),
-                mask: s.mask.as_mut_ptr(),
-                id: s.id.as_mut_ptr(),
-                flags: s.flags.as_mut_ptr(),
-            },
+            ray: s.ray_np(),
             hit: sys::RTCHitNp {
                 Ng_x: s.ng[0].as_mut_ptr(),
                 Ng_y: s.ng[1].as_mut_ptr(),
@@ -1400,20 +1395,7 @@ impl Scene {
         coherence: Coherence,
     ) {
         let s = stream;
-        let rays = sys::RTCRayNp {
-            org_x: s.org[0].as_mut_ptr(),
-            org_y: s.org[1].as_mut_ptr(),
-            org_z: s.org[2].as_mut_ptr(),
-            tnear: s.tnear.as_mut_ptr(),
-            dir_x: s.dir[0].as_mut_ptr(),
-            dir_y: s.dir[1].as_mut_ptr(),
-            dir_z: s.dir[2].as_mut_ptr(),
-            time: s.time.as_mut_ptr(),
-            tfar: s.tfar.as_mut_ptr(),
-            mask: s.mask.as_mut_ptr(),
-            id: s.id.as_mut_ptr(),
-            flags: s.flags.as_mut_ptr(),
-        };
+        let rays = s.ray_np();
         let mut ctx = query::Ctx::new(coherence);
         // SAFETY: as in `intersect_packets`: every pointer points to an array of N ≥
         // `s.len` elements of the stream, 16-byte aligned, borrowed and unmoved for the
