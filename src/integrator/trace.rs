@@ -500,19 +500,20 @@ impl<F: Width> Tracer<F> {
             } else if !MEDIA {
                 self.trace_shadows(scene);
             }
-            self.hand_in(results);
+            self.hand_in(results, stream_shadows);
         }
     }
 
-    /// Adds the stream's unblocked shadow rays to their paths (scenes without media, W >
-    /// 1), and hands in the paths that ended this round, group by group in one pass.
+    /// Adds the stream's unblocked shadow rays to their paths if the round streamed them
+    /// (`streamed`: scenes without media, W > 1; otherwise they were traced alone or in
+    /// the step), and hands in the paths that ended this round, group by group in one
+    /// pass.
     #[inline(always)]
-    fn hand_in(&mut self, results: &mut [Vec4]) {
+    fn hand_in(&mut self, results: &mut [Vec4], streamed: bool) {
         let mut r = 0;
         for g in self.groups.iter_mut() {
             let s = &mut g.shadows;
-            // (W = 1 traced its shadow rays alone; with media they are traced in the step.)
-            if F::GROUPS > 1 && s.active.any() {
+            if streamed && s.active.any() {
                 let mut bits = 0;
                 for i in s.active.iter() {
                     bits |= (self.shadow_rays.blocked(r) as u32) << i;
