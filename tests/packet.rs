@@ -390,10 +390,16 @@ fn gathering_the_camera_paths_changes_no_result_and_fills_the_camera_packets() {
 }
 
 /// Tracing the camera rays of the groups that start together as one stream, ahead of
-/// their step, changes no bit of any sample at widths 4 and 8: the stream hands each
-/// group the hits its own packet query finds. Most camera rays go through the stream:
-/// all but those of rounds that start a single group (at 32², measured 882–924 of 1024
-/// at width 4 and 478–672 at width 8).
+/// their step, changes no sample at widths 4 and 8: the stream hands each group the hits
+/// its own packet query would find. Embree answers a stream with its widest packet kernel
+/// (8 lanes under AVX2, 16 under AVX-512), not the 4-wide one, so the two are different
+/// kernels and the test does not demand the same bits everywhere: at most one sample in
+/// 200 may differ (a ray through an edge that two kernels give to different triangles;
+/// none differs on an AMD EPYC Zen 3, AVX2, nor under the SSE2, SSE4.2 and AVX kernels).
+/// A stream that handed hits to the wrong lanes or groups changes most samples. The
+/// wavelengths are drawn before any ray is traced and must match exactly. Most camera
+/// rays go through the stream: all but those of rounds that start a single group (at
+/// 32², measured 882–924 of 1024 at width 4 and 478–672 at width 8).
 #[cfg(embree3)]
 #[test]
 fn camera_rays_in_a_stream_change_no_result() {
@@ -425,14 +431,19 @@ fn camera_rays_in_a_stream_change_no_result() {
                     .collect::<Vec<_>>()
             };
             let what = format!("{file}, width {width}");
-            assert_eq!(bits(&a), bits(&b), "{what}: the stream changed a result");
+            let (a, b) = (bits(&a), bits(&b));
+            let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+            assert!(
+                differ * 200 <= n as usize,
+                "{what}: the stream changed {differ} of {n} samples"
+            );
             assert_eq!(la, lb, "{what}: the stream changed a wavelength");
             assert_eq!(none, 0, "{what}: rays streamed with streams off");
             assert!(
                 streamed as f64 > 0.3 * n as f64 && streamed <= n as u64,
                 "{what}: {streamed} of {n} camera rays streamed"
             );
-            eprintln!("{what}: {streamed} of {n} camera rays streamed");
+            eprintln!("{what}: {streamed} of {n} camera rays streamed, {differ} samples differ");
         }
     }
 }
