@@ -254,9 +254,11 @@ fn to_lambda<F: Float>(u: F) -> F {
 /// other paths' lanes are left meaningless; under the visible pdf they hold MIN).
 #[inline(always)]
 pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
-    let one = F::splat(1.0);
     let table = visible_table();
-    let lane = |k: f32| {
+    // A function, not a closure: four calls of a closure this size stayed out of line.
+    #[inline(always)]
+    fn lane<F: Float>(w: Wavelengths, table: &VisibleTable, u: F, m: F::Mask, k: f32) -> F {
+        let one = F::splat(1.0);
         let v = u + F::splat(0.25 * k);
         let v = F::select(v.ge(one), v - one, v);
         match w {
@@ -267,8 +269,13 @@ pub fn hwss<F: Float>(w: Wavelengths, u: F, m: F::Mask) -> Spec<F> {
                 F::splat(LAMBDA_MIN),
             ),
         }
-    };
-    Spec([lane(0.0), lane(1.0), lane(2.0), lane(3.0)])
+    }
+    Spec([
+        lane(w, table, u, m, 0.0),
+        lane(w, table, u, m, 1.0),
+        lane(w, table, u, m, 2.0),
+        lane(w, table, u, m, 3.0),
+    ])
 }
 
 /// One wavelength for each path of `m` drawn with the pdf `w`, in every lane
