@@ -49,7 +49,8 @@ struct Prev<F: Float> {
     ratio: Spec<F>,
     /// The vertex.
     p: V3<F>,
-    /// Per-lane probability that tracking passed every medium segment since.
+    /// Per-lane probability that tracking passed every medium segment since (kept in
+    /// scenes with media only; without, it would be 1 and is neither read nor written).
     pass: Spec<F>,
 }
 
@@ -389,7 +390,7 @@ impl<F: Float> Paths<F> {
         let escaped = s & !hit.valid;
         if escaped.any() && scene.lights.environment.is_some() {
             census::record(Part::Escaped, escaped);
-            self.escaped(scene, escaped);
+            self.escaped::<MEDIA>(scene, escaped);
         }
         self.kill(escaped);
         s &= hit.valid;
@@ -419,7 +420,7 @@ impl<F: Float> Paths<F> {
             self.depth[i] += s.get(i) as i32;
         }
         let wo = -self.dir;
-        self.emitted(scene, hit, s, p, ng, wo);
+        self.emitted::<MEDIA>(scene, hit, s, p, ng, wo);
 
         // Paths at their last segment, or on a surface without a material, end here.
         let mut mat = <F::Arr<u32> as Lanes<u32>>::splat(0);
@@ -575,7 +576,7 @@ impl<F: Float> Paths<F> {
     /// Emission seen by the paths in `m`, which hit the surfaces at `p`: weighted against
     /// light sampling at the previous vertex where there is one.
     #[inline(always)]
-    fn emitted(
+    fn emitted<const MEDIA: bool>(
         &mut self,
         scene: &Scene,
         hit: &Hits<F>,
@@ -614,13 +615,13 @@ impl<F: Float> Paths<F> {
             });
             area * d2 / cos_l.max(F::splat(1e-12))
         };
-        self.add_emission(facing, le, p_light);
+        self.add_emission::<MEDIA>(facing, le, p_light);
     }
 
     /// The environment's radiance seen by the paths in `m`, whose rays left the scene:
     /// weighted against light sampling at the previous vertex where there is one.
     #[inline(never)]
-    fn escaped(&mut self, scene: &Scene, m: F::Mask) {
+    fn escaped<const MEDIA: bool>(&mut self, scene: &Scene, m: F::Mask) {
         let lights = &scene.lights;
         let Some(env) = &lights.environment else {
             return;
@@ -639,15 +640,16 @@ impl<F: Float> Paths<F> {
                 false => 0.0,
             })
         };
-        self.add_emission(m, le, p_light);
+        self.add_emission::<MEDIA>(m, le, p_light);
     }
 
     /// Adds the emitted radiance `le` that the paths in `m` see: in full for a camera
     /// ray or after a specular event, else with the balance heuristic against light
     /// sampling at the previous vertex, where `p_light` (of the paths it concerns and that
-    /// vertex) gives the solid-angle density of light sampling.
+    /// vertex) gives the solid-angle density of light sampling. Without media no pass
+    /// probability is kept (it would be 1): `prev.pass` is neither read nor written.
     #[inline(always)]
-    fn add_emission(
+    fn add_emission<const MEDIA: bool>(
         &mut self,
         m: F::Mask,
         le: Spec<F>,
@@ -663,7 +665,10 @@ impl<F: Float> Paths<F> {
         if after.any() {
             let pv = &self.prev;
             let p_light = p_light(after, pv);
-            let p_dir = pv.pdf_dir * pv.pass;
+            let p_dir = match MEDIA {
+                true => pv.pdf_dir * pv.pass,
+                false => pv.pdf_dir,
+            };
             let denom = (pv.ratio * (p_dir + Spec::broadcast(p_light))).sum();
             // beta already holds f/p_dir,0 (and the passes' T/P_0): put the hero's pdf back.
             let add = self.beta * le * (p_dir.hero() / denom);
@@ -825,7 +830,9 @@ impl<F: Float> Paths<F> {
         pv.pdf_dir.set_where(s, bs.pdf);
         pv.ratio.set_where(s, ratio_prev);
         pv.p.set_where(s, p);
-        pv.pass.set_where(s, Spec::splat(1.0));
+        if MEDIA {
+            pv.pass.set_where(s, Spec::splat(1.0));
+        }
         let black = s & self.beta.is_zero();
         self.kill(black);
         s &= !black;
