@@ -190,6 +190,16 @@ impl Spectrum {
                 true => t.eval4(lambda.path(i)),
                 false => Vec4::ZERO,
             }),
+            _ => self.eval_w_rest(lambda, m),
+        }
+    }
+
+    /// [`Spectrum::eval_w`] for the kinds other than constants and tables, out of line:
+    /// a scaled spectrum recurses, and a recursive function is never inlined, so the hot
+    /// kinds above would otherwise pay a call too.
+    #[inline(never)]
+    fn eval_w_rest<F: Float>(&self, lambda: &Spec<F>, m: F::Mask) -> Spec<F> {
+        match self {
             Spectrum::Rgb(r) => r.eval_w(lambda, m),
             Spectrum::Scaled(inner, k) => inner.eval_w(lambda, m).map(|v| F::splat(*k) * v),
             _ => Spec::from_fn(|i| match m.get(i) {
