@@ -2,11 +2,14 @@
 //! modes — packets of four paths against single rays — at several path depths and thread
 //! counts, measured in one run so that their ratios are taken under the same machine load.
 //!
-//! For every depth, each (threads, mode) runs in turn, `repetitions` times round-robin,
-//! each run a fixed number of samples per pixel sized from a first untimed warm-up run to
-//! take about `seconds / repetitions` at the first thread count; the median rate is
-//! reported, with its ratio to single rays and to the fewest threads. Scene loading and the BVH
-//! build are not timed.
+//! For every depth, each (threads, mode) runs in turn, `repetitions` times round-robin
+//! (every other repetition in reverse order), each run a fixed number of samples per pixel
+//! sized from a first untimed warm-up run to take about `seconds / repetitions` at the
+//! first thread count. The median rate is reported, and its ratio to single rays and to
+//! the fewest threads as *paired* ratios: each repetition's rate over the other figure's
+//! rate in the same repetition, seconds apart, then the median and quartiles of those.
+//! A shared machine's load drifts over minutes, which a ratio of two medians keeps and a
+//! paired ratio divides out. Scene loading and the BVH build are not timed.
 
 use crate::integrator::render::{render, RenderOptions};
 use crate::method::{Axis, Layout, Method, Rays};
@@ -45,6 +48,15 @@ pub struct RenderBenchResult {
     pub threads: usize,
     /// Median pixel samples per second.
     pub samples_per_second: f64,
+    /// Pixel samples per second of each repetition, in the order they ran.
+    pub runs: Vec<f64>,
+    /// Each repetition's rate over single rays' in the same repetition (same depth and
+    /// threads), when single rays were measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vs_single: Option<Spread>,
+    /// Each repetition's rate over the same mode's at the fewest threads.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vs_fewest_threads: Option<Spread>,
     /// Samples per pixel of each timed run.
     pub spp: u32,
     /// Rays per pixel sample (camera, bounce and shadow rays).
@@ -71,13 +83,40 @@ pub struct RenderBenchReport {
     pub results: Vec<RenderBenchResult>,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median and quartiles of some ratios.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Spread {
+    pub median: f64,
+    /// Lower quartile.
+    pub q1: f64,
+    /// Upper quartile.
+    pub q3: f64,
+}
+
+/// The `p`-quantile of `v` (0 ≤ p ≤ 1), linear between order statistics (NumPy's
+/// default, Python's `statistics.quantiles(method="inclusive")`).
+fn quantile(v: &[f64], p: f64) -> f64 {
+    let mut v = v.to_vec();
     v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+    let x = p * (v.len() - 1) as f64;
+    let (i, t) = (x.floor() as usize, x.fract());
+    match v.get(i + 1) {
+        Some(next) => v[i] + t * (next - v[i]),
+        None => v[i],
+    }
+}
+
+fn median(v: Vec<f64>) -> f64 {
+    quantile(&v, 0.5)
+}
+
+/// The spread of the paired ratios `a[i] / b[i]` (runs of the same repetition).
+pub fn paired(a: &[f64], b: &[f64]) -> Spread {
+    let r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
+    Spread {
+        median: quantile(&r, 0.5),
+        q1: quantile(&r, 0.25),
+        q3: quantile(&r, 0.75),
     }
 }
 
@@ -132,20 +171,40 @@ pub fn bench_render(
             .max(1.0) as u32;
         let mut rates = vec![Vec::new(); combos.len()];
         let mut seen = vec![(0.0, None, None); combos.len()];
-        for _ in 0..reps {
-            for (c, &(threads, mode)) in combos.iter().enumerate() {
+        for rep in 0..reps {
+            // Every other repetition in reverse, so that no figure always runs first.
+            let order: Vec<usize> = match rep % 2 {
+                0 => (0..combos.len()).collect(),
+                _ => (0..combos.len()).rev().collect(),
+            };
+            for c in order {
+                let (threads, mode) = combos[c];
                 let (r, rps, occ, medium) = run(threads, depth, mode, spp)?;
                 rates[c].push(r);
                 seen[c] = (rps, occ, medium);
             }
         }
+        let fewest = opts.threads.iter().map(|&t| threads_used(t)).min();
+        let single = |threads: usize| {
+            combos
+                .iter()
+                .position(|&(t, (rays, _))| t == threads && rays == Rays::Single)
+        };
+        let at_fewest = |mode: (Rays, Layout)| {
+            combos
+                .iter()
+                .position(|&(t, m)| Some(threads_used(t)) == fewest && m == mode)
+        };
         for (c, &(threads, (rays, layout))) in combos.iter().enumerate() {
             let res = RenderBenchResult {
                 rays: rays.name(),
                 layout: layout.name(),
                 max_depth: depth,
                 threads: threads_used(threads),
-                samples_per_second: median(std::mem::take(&mut rates[c])),
+                samples_per_second: median(rates[c].clone()),
+                runs: rates[c].clone(),
+                vs_single: single(threads).map(|b| paired(&rates[c], &rates[b])),
+                vs_fewest_threads: at_fewest((rays, layout)).map(|b| paired(&rates[c], &rates[b])),
                 spp,
                 rays_per_sample: seen[c].0,
                 occupancy: seen[c].1,
@@ -173,79 +232,103 @@ fn threads_used(threads: usize) -> usize {
     }
 }
 
-/// A table of the figures with each mode's rate relative to single rays; in scenes with
-/// media, a last column gives how busy the packets' medium steps ran.
+/// A table of the figures with each mode's rate relative to single rays and to the fewest
+/// threads (medians of the paired ratios, with their quartiles beside the ratio to single
+/// rays once there are four repetitions); in scenes with media, a last column gives how
+/// busy the packets' medium steps ran.
 pub fn format_table(report: &RenderBenchReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{}: {}x{}, M samples/s (median of the runs)",
+        "{}: {}x{}, M samples/s (median of the runs; ratios: median of each run's ratio \
+         to the other figure's run in the same repetition)",
         report.scene, report.width, report.height
     );
     let media = report.results.iter().any(|r| r.medium_occupancy.is_some());
+    let quartiles = report.results.iter().any(|r| r.runs.len() >= 4);
     let share =
         |o: Option<f64>| o.map_or_else(|| "-".to_string(), |o| format!("{:.0}%", 100.0 * o));
+    let ratio =
+        |o: Option<Spread>| o.map_or_else(|| "-".to_string(), |o| format!("{:.2}x", o.median));
     let _ = write!(
         s,
-        "{:>7} {:>9} {:>14} {:>11} {:>11} {:>9} {:>9} {:>11}",
-        "threads",
-        "max depth",
-        "rays",
-        "M samples/s",
-        "rays/sample",
-        "lanes",
-        "vs single",
-        "vs 1st thr."
+        "{:>7} {:>9} {:>14} {:>11} {:>11} {:>9} {:>9}",
+        "threads", "max depth", "rays", "M samples/s", "rays/sample", "lanes", "vs single",
     );
+    if quartiles {
+        let _ = write!(s, " {:>11}", "quartiles");
+    }
+    let _ = write!(s, " {:>11}", "vs 1st thr.");
     let _ = writeln!(s, "{}", if media { "  medium lanes" } else { "" });
-    let fewest = report.results.iter().map(|r| r.threads).min();
     for r in &report.results {
-        let single = report
-            .results
-            .iter()
-            .find(|q| q.rays == "single" && q.max_depth == r.max_depth && q.threads == r.threads)
-            .map(|q| q.samples_per_second);
-        let ratio = single.map_or_else(
-            || "-".to_string(),
-            |b| format!("{:.2}x", r.samples_per_second / b),
-        );
-        let scaling = report
-            .results
-            .iter()
-            .find(|q| {
-                Some(q.threads) == fewest
-                    && (q.rays, q.layout, q.max_depth) == (r.rays, r.layout, r.max_depth)
-            })
-            .map_or_else(
-                || "-".to_string(),
-                |b| format!("{:.2}x", r.samples_per_second / b.samples_per_second),
-            );
         let depth = if r.max_depth < 0 {
             "inf".to_string()
         } else {
             r.max_depth.to_string()
         };
-        let lanes = share(r.occupancy);
         let mode = match (r.rays, r.layout) {
             ("single", _) | (_, "quad") => r.rays.to_string(),
             (rays, layout) => format!("{rays}/{layout}"),
         };
         let _ = write!(
             s,
-            "{:>7} {:>9} {:>14} {:>11.3} {:>11.2} {:>9} {:>9} {:>11}",
+            "{:>7} {:>9} {:>14} {:>11.3} {:>11.2} {:>9} {:>9}",
             r.threads,
             depth,
             mode,
             r.samples_per_second / 1e6,
             r.rays_per_sample,
-            lanes,
-            ratio,
-            scaling
+            share(r.occupancy),
+            ratio(r.vs_single),
         );
+        if quartiles {
+            let q = r
+                .vs_single
+                .filter(|_| r.rays != "single")
+                .map_or_else(|| "-".to_string(), |o| format!("{:.2}–{:.2}", o.q1, o.q3));
+            let _ = write!(s, " {q:>11}");
+        }
+        let _ = write!(s, " {:>11}", ratio(r.vs_fewest_threads));
         if media {
             let _ = write!(s, " {:>13}", share(r.medium_occupancy));
         }
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Quantiles interpolate between order statistics as NumPy's default does, in any
+    /// input order.
+    #[test]
+    fn quantiles_interpolate_between_order_statistics() {
+        let v = [4.0, 1.0, 3.0, 2.0];
+        assert_eq!(quantile(&v, 0.5), 2.5);
+        assert_eq!(quantile(&v, 0.25), 1.75);
+        assert_eq!(quantile(&v, 0.75), 3.25);
+        assert_eq!(quantile(&v, 0.0), 1.0);
+        assert_eq!(quantile(&v, 1.0), 4.0);
+        assert_eq!(quantile(&[7.0], 0.25), 7.0);
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
+    }
+
+    /// A paired ratio divides each run by the run of its own repetition: a load that
+    /// halves both runs of a repetition leaves it unchanged, where the ratio of the
+    /// medians moves.
+    #[test]
+    fn paired_ratios_divide_out_what_a_repetition_shares() {
+        let single = [1.0, 0.5, 1.0, 0.5, 0.5];
+        let packet = [1.5, 0.75, 1.5, 0.75, 0.75];
+        let p = paired(&packet, &single);
+        assert_eq!((p.q1, p.median, p.q3), (1.5, 1.5, 1.5));
+        // The ratio of the medians agrees here (0.75 / 0.5). When the load falls on
+        // different repetitions in the two figures' runs, it no longer does, while the
+        // pairs still read 1.5.
+        let (single, packet) = ([1.0, 1.0, 1.0, 0.5, 0.5], [1.5, 0.75, 0.75, 0.75, 0.75]);
+        assert_eq!(median(packet.to_vec()) / median(single.to_vec()), 0.75);
+        assert_eq!(paired(&packet, &single).median, 1.5);
+    }
 }
