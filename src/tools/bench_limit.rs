@@ -18,6 +18,7 @@
 //! fraction of that limit says how much of its time the shading takes: 1 would mean none.
 //! Render and replays run on the same pool of `threads` threads.
 
+use super::spread::median;
 use crate::accel::{Coherence, Ray, RaysN, Scene as Accel};
 use crate::integrator::render::{render, trace_rays, RenderOptions};
 use crate::method::Axis;
@@ -119,8 +120,7 @@ pub fn bench_limit(
     for _ in 0..reps {
         runs.push(pixels * spp as f64 / time(spp)?);
     }
-    runs.sort_by(f64::total_cmp);
-    let render_rate = runs[runs.len() / 2];
+    let render_rate = median(&runs);
     progress(&format!(
         "render: {spp} spp, {:.3} M samples/s",
         render_rate / 1e6

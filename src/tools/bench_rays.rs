@@ -21,6 +21,7 @@
 //! The scene is reached through closures ([`RayBenchInput`]) so that this module depends
 //! only on [`crate::accel`].
 
+use super::spread::median;
 use crate::accel::{thread_pool, Coherence, Ray, RayHit4, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -371,18 +372,6 @@ fn packet_pass(scene: &Scene, work: &Work, kind: Kind) -> u64 {
         .sum()
 }
 
-fn median(mut xs: Vec<f64>) -> f64 {
-    xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    if n == 0 {
-        0.0
-    } else if n % 2 == 1 {
-        xs[n / 2]
-    } else {
-        0.5 * (xs[n / 2 - 1] + xs[n / 2])
-    }
-}
-
 /// Repeats `pass` (on `pool`) for at least `per_run`; returns Mrays/s of that run.
 fn timed_run(
     pool: &ThreadPool,
@@ -435,7 +424,7 @@ fn measure(
         rs.push(timed_run(pool, per_run, work.rays(), &s));
         rp.push(timed_run(pool, per_run, work.rays(), &p));
     }
-    (median(rs), median(rp))
+    (median(&rs), median(&rp))
 }
 
 /// [`bench_rays`] on a loaded scene: its camera's rays, its lights' points, its bounds.

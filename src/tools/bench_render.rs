@@ -11,6 +11,7 @@
 //! A shared machine's load drifts over minutes, which a ratio of two medians keeps and a
 //! paired ratio divides out. Scene loading and the BVH build are not timed.
 
+use super::spread::{median, paired, Spread};
 use crate::integrator::render::{render, RenderOptions};
 use crate::method::{Axis, Layout, Method, Rays};
 use crate::scene::Scene;
@@ -81,43 +82,6 @@ pub struct RenderBenchReport {
     pub height: u32,
     /// Every figure.
     pub results: Vec<RenderBenchResult>,
-}
-
-/// The median and quartiles of some ratios.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Spread {
-    pub median: f64,
-    /// Lower quartile.
-    pub q1: f64,
-    /// Upper quartile.
-    pub q3: f64,
-}
-
-/// The `p`-quantile of `v` (0 ≤ p ≤ 1), linear between order statistics (NumPy's
-/// default, Python's `statistics.quantiles(method="inclusive")`).
-fn quantile(v: &[f64], p: f64) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    let x = p * (v.len() - 1) as f64;
-    let (i, t) = (x.floor() as usize, x.fract());
-    match v.get(i + 1) {
-        Some(next) => v[i] + t * (next - v[i]),
-        None => v[i],
-    }
-}
-
-fn median(v: Vec<f64>) -> f64 {
-    quantile(&v, 0.5)
-}
-
-/// The spread of the paired ratios `a[i] / b[i]` (runs of the same repetition).
-pub fn paired(a: &[f64], b: &[f64]) -> Spread {
-    let r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
-    Spread {
-        median: quantile(&r, 0.5),
-        q1: quantile(&r, 0.25),
-        q3: quantile(&r, 0.75),
-    }
 }
 
 /// Runs the benchmark; `progress` hears about each figure as it is measured.
@@ -201,7 +165,7 @@ pub fn bench_render(
                 layout: layout.name(),
                 max_depth: depth,
                 threads: threads_used(threads),
-                samples_per_second: median(rates[c].clone()),
+                samples_per_second: median(&rates[c]),
                 runs: rates[c].clone(),
                 vs_single: single(threads).map(|b| paired(&rates[c], &rates[b])),
                 vs_fewest_threads: at_fewest((rays, layout)).map(|b| paired(&rates[c], &rates[b])),
@@ -295,40 +259,4 @@ pub fn format_table(report: &RenderBenchReport) -> String {
         s.push('\n');
     }
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Quantiles interpolate between order statistics as NumPy's default does, in any
-    /// input order.
-    #[test]
-    fn quantiles_interpolate_between_order_statistics() {
-        let v = [4.0, 1.0, 3.0, 2.0];
-        assert_eq!(quantile(&v, 0.5), 2.5);
-        assert_eq!(quantile(&v, 0.25), 1.75);
-        assert_eq!(quantile(&v, 0.75), 3.25);
-        assert_eq!(quantile(&v, 0.0), 1.0);
-        assert_eq!(quantile(&v, 1.0), 4.0);
-        assert_eq!(quantile(&[7.0], 0.25), 7.0);
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
-    }
-
-    /// A paired ratio divides each run by the run of its own repetition: a load that
-    /// halves both runs of a repetition leaves it unchanged, where the ratio of the
-    /// medians moves.
-    #[test]
-    fn paired_ratios_divide_out_what_a_repetition_shares() {
-        let single = [1.0, 0.5, 1.0, 0.5, 0.5];
-        let packet = [1.5, 0.75, 1.5, 0.75, 0.75];
-        let p = paired(&packet, &single);
-        assert_eq!((p.q1, p.median, p.q3), (1.5, 1.5, 1.5));
-        // The ratio of the medians agrees here (0.75 / 0.5). When the load falls on
-        // different repetitions in the two figures' runs, it no longer does, while the
-        // pairs still read 1.5.
-        let (single, packet) = ([1.0, 1.0, 1.0, 0.5, 0.5], [1.5, 0.75, 0.75, 0.75, 0.75]);
-        assert_eq!(median(packet.to_vec()) / median(single.to_vec()), 0.75);
-        assert_eq!(paired(&packet, &single).median, 1.5);
-    }
 }

@@ -11,7 +11,8 @@
 //! - [`figure`]: `stokes figure`, renders side by side as a labelled PNG strip with their
 //!   differences to a reference and a table of their errors;
 //! - [`convert`]: `stokes convert-bispectral`, a measured matrix (BFC, CSV) as CSV;
-//! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`.
+//! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`;
+//! - [`spread`]: the medians, quartiles and paired ratios they report.
 
 pub mod bench_limit;
 pub mod bench_rays;
@@ -23,4 +24,5 @@ pub mod convert;
 pub mod figure;
 pub mod merge;
 pub mod reference;
+pub mod spread;
 pub mod submit;
