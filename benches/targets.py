@@ -1,0 +1,204 @@
+#!/usr/bin/env python3
+"""The table of where issue 14's speed targets stand, from the files benches/targets.sh
+writes in OUT (a part that did not run is reported as "not measured"):
+
+    python3 benches/targets.py OUT
+
+Prints markdown: the CPU, one row per target (goal, what was measured, whether it is
+reached), then the paired packet / single cells of part 1 with their quartiles.
+"""
+import json
+import os
+import re
+import statistics
+import sys
+
+
+def load_json(path):
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return json.load(f)
+
+
+def lines(path):
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return f.read().splitlines()
+
+
+def depth_name(d):
+    return "unbounded" if d < 0 else f"depth {d}"
+
+
+def render_cells(out):
+    """(scene, threads, depth, rays) -> the bench render result, for part 1's runs."""
+    cells = {}
+    for scene in ("cornell-box", "sphere-100k"):
+        d = load_json(os.path.join(out, f"render-{scene}.json"))
+        if d is None:
+            continue
+        for r in d["results"]:
+            cells[(scene, r["threads"], r["max_depth"], r["rays"])] = r
+    return cells
+
+
+def speedup_row(cells):
+    ratios = [
+        (k, r["vs_single"]) for k, r in cells.items() if k[3] == "packet" and r.get("vs_single")
+    ]
+    if not ratios:
+        return "not measured"
+    low = min(ratios, key=lambda kr: kr[1]["median"])
+    high = max(ratios, key=lambda kr: kr[1]["median"])
+    reached = sum(v["median"] >= 1.6 for _, v in ratios)
+    name = lambda k: f"{k[0]} {k[1]}T {depth_name(k[2])}"
+    return (
+        f"paired medians {low[1]['median']:.2f}× ({name(low[0])}) to "
+        f"{high[1]['median']:.2f}× ({name(high[0])}); {reached} of {len(ratios)} cells "
+        f"at 1.6× or more",
+        reached == len(ratios),
+    )
+
+
+def threads_row(out):
+    d = load_json(os.path.join(out, "threads-sphere-100k.json"))
+    if d is None:
+        return "not measured"
+    got = {
+        r["rays"]: r["vs_fewest_threads"]
+        for r in d["results"]
+        if r["threads"] == 2 and r.get("vs_fewest_threads")
+    }
+    text = ", ".join(
+        f"{rays} {v['median']:.2f}× ({v['q1']:.2f}–{v['q3']:.2f})" for rays, v in sorted(got.items())
+    )
+    return f"paired medians (quartiles): {text}", all(v["median"] >= 1.85 for v in got.values())
+
+
+def limit_row(out):
+    got = {}
+    for rays in ("packet", "single"):
+        d = load_json(os.path.join(out, f"limit-cornell-box-{rays}.json"))
+        if d is not None:
+            got[rays] = d
+    if not got:
+        return "not measured"
+    text = "; ".join(
+        f"{rays} {d['fraction']:.2f} (render {d['render_samples_per_second'] / 1e6:.3f}, "
+        f"Embree alone {d['embree_samples_per_second'] / 1e6:.3f} M samples/s)"
+        for rays, d in got.items()
+    )
+    return text, "packet" in got and got["packet"]["fraction"] >= 0.6
+
+
+def mitsuba_rows(out):
+    text = lines(os.path.join(out, "mitsuba.txt"))
+    if text is None or not any(l.startswith("mitsuba ") for l in text):
+        return "not measured", "not measured"
+    rounds, current = [], {}
+    for l in text:
+        m = re.match(r"(stokes|mitsuba) (\S+) ([0-9.]+) M samples/s", l)
+        if not m:
+            continue
+        key = f"{m[1]} {m[2]}"
+        if key in current:
+            rounds.append(current)
+            current = {}
+        current[key] = float(m[3])
+    rounds.append(current)
+
+    def row(variant, goal):
+        rs = [r["stokes packet"] / r[f"mitsuba {variant}"] for r in rounds
+              if "stokes packet" in r and f"mitsuba {variant}" in r]
+        if not rs:
+            return "not measured"
+        ms = [r[f"mitsuba {variant}"] for r in rounds if f"mitsuba {variant}" in r]
+        ps = [r["stokes packet"] for r in rounds if "stokes packet" in r]
+        return (
+            f"{', '.join(f'{x:.2f}×' for x in rs)} in {len(rs)} rounds (stokes packet "
+            f"{min(ps):.2f}–{max(ps):.2f}, `{variant}` {min(ms):.2f}–{max(ms):.2f} M samples/s)",
+            all(x >= goal for x in rs),
+        )
+
+    return row("llvm_ad_spectral", 1.5), row("scalar_spectral", 3.0)
+
+
+def fluorescence_row(out):
+    text = lines(os.path.join(out, "fluorescence-cost.txt"))
+    if text is None:
+        return "not measured"
+    for l in text:
+        m = re.match(r"cost per sample with dyes / without: ([0-9.]+)", l)
+        if m:
+            x = float(m[1])
+            return f"{x:.3f}× (six alternating rounds)", x <= 1.3
+    return "not measured"
+
+
+def instructions_row(out):
+    text = lines(os.path.join(out, "instructions.txt"))
+    if text is None:
+        return "not measured"
+    parts = []
+    for l in text:
+        m = re.match(r"\S+ scenes/(\S+)\.toml (\S+): (\d+) instructions per sample", l)
+        if m:
+            parts.append(f"{m[1]} {m[2]} {int(m[3]):,}")
+    note = " (callgrind, 64², 9 spp minus 1 spp, 1 thread)"
+    return ("; ".join(parts) + note, None) if parts else "not measured"
+
+
+def cell(row):
+    if isinstance(row, str):
+        return row, "–"
+    text, ok = row
+    return text, "–" if ok is None else ("**yes**" if ok else "no")
+
+
+def main():
+    out = sys.argv[1]
+    cpu = lines(os.path.join(out, "cpu.txt"))
+    print(f"CPU: {cpu[0].split(':', 1)[1].strip() if cpu else 'unknown'}\n")
+    cells = render_cells(out)
+    llvm, scalar = mitsuba_rows(out)
+    rows = [
+        ("packet / single, depth 3 and unbounded, both scenes, 1 and 2 threads", "≥ 1.6×", speedup_row(cells)),
+        ("Cornell box 256², 64 spp, depth 6, 2 threads: against Mitsuba 3 `llvm_ad_spectral`", "≥ 1.5×", llvm),
+        ("the same against `scalar_spectral`", "≥ 3×", scalar),
+        ("fraction of the Embree limit, Cornell box 256², 1 thread", "≥ 0.6 (packet)", limit_row(out)),
+        ("fluorescent surfaces against the same scene without dyes, cost per sample", "≤ 1.3×", fluorescence_row(out)),
+        ("2 threads / 1 thread at depth 1, 1024² sphere", "≥ 1.85×", threads_row(out)),
+        ("callgrind instructions per sample", "reported", instructions_row(out)),
+    ]
+    print("| target | goal | measured | reached |")
+    print("| --- | --- | --- | --- |")
+    for name, goal, row in rows:
+        text, ok = cell(row)
+        print(f"| {name} | {goal} | {text} | {ok} |")
+    if not cells:
+        return
+    print("\n| scene | threads | max depth | packet / single: median (quartiles) | packet8 / single | single, packet (M samples/s, medians) |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    keys = sorted({k[:3] for k in cells}, key=lambda k: (k[0], k[1], k[2] < 0, k[2]))
+    for scene, threads, depth in keys:
+        def ratio(rays):
+            r = cells.get((scene, threads, depth, rays))
+            v = r and r.get("vs_single")
+            return f"{v['median']:.2f}× ({v['q1']:.2f}–{v['q3']:.2f})" if v else "–"
+        rate = lambda rays: cells[(scene, threads, depth, rays)]["samples_per_second"] / 1e6
+        print(
+            f"| {scene} | {threads} | {depth_name(depth)} | {ratio('packet')} | "
+            f"{ratio('packet8')} | {rate('single'):.3f}, {rate('packet'):.3f} |"
+        )
+    spread = [
+        r["vs_single"]["q3"] - r["vs_single"]["q1"]
+        for k, r in cells.items() if k[3] == "packet" and r.get("vs_single")
+    ]
+    if spread:
+        print(f"\nMedian interquartile range of packet / single: {statistics.median(spread):.2f}")
+
+
+if __name__ == "__main__":
+    main()
