@@ -7,14 +7,14 @@ through inlining: each executed instruction of a callgrind run (recorded as for
 
 --by file  the innermost file of this repository under src/ outside src/simd/ (a light
            sample's arithmetic counts for light.rs, not for the SIMD types it uses); the
-           README's table "Where width 4 still costs more than width 1"
+           table "Where width 4 still costs more than width 1" in docs/packets.md
 --by line  the same, file and line
 --by step  the line of src/integrator/ it was inlined into (which part of the step)
 
 --event E  count another of the run's events instead of instructions (Ir), e.g. Bcm,
            mispredicted conditional branches, from a run with `--branch-sim=yes`
 
-SAMPLES is the run's pixel samples (64 × 64 × 16 = 65536 for the README's runs). The
+SAMPLES is the run's pixel samples (64 × 64 × 16 = 65536 for the runs in docs/packets.md). The
 binary must carry line tables (the release profile's `debug = 1`).
 """
 import collections

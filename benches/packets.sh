@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The figures of the README section "Packets against single rays", each comparison taken
+# The figures of docs/packets.md ("The SIMD estimator's first figures" and the targets
+# table that ends the file), each comparison taken
 # in one run (these machines are shared and noisy), and the CPU they came from:
 #
 #   benches/packets.sh [OUT_DIR]          # default out/packets; about 40 minutes on 2 cores

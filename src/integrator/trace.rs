@@ -42,8 +42,8 @@ pub struct Hits<F: Float> {
 pub trait Width: Float {
     /// Groups of W paths a tracer keeps in flight. With more than one, their shadow rays
     /// go to Embree together as a stream ([`PATHS_IN_FLIGHT`]); single rays keep one path
-    /// and trace each shadow ray alone (as a stream they measured slower: the README's
-    /// "Shadow rays as streams").
+    /// and trace each shadow ray alone (as a stream they measured slower: `docs/packets.md`,
+    /// "Random streams in SIMD, shadow rays as Embree streams").
     const GROUPS: usize;
     /// The closest hits of the rays `org + t·dir`, t in `[0, tfar]`, of the lanes in
     /// `active` (the other lanes miss).
@@ -320,8 +320,8 @@ impl RayLog {
 /// while streams of 4 gain nothing. 128 rather than 64: a round runs the refill, Embree's
 /// camera and shadow streams and the hand-in once for all its groups, and with the step
 /// their code does not fit the first-level instruction cache; twice the paths per round
-/// fetch it half as often per path (`benches/cachesim.py`; README, "Where packets miss
-/// the caches").
+/// fetch it half as often per path (`benches/cachesim.py`; `docs/packets.md`, "Where packets
+/// miss the caches").
 pub const PATHS_IN_FLIGHT: usize = 128;
 
 /// W lanes of paths, their shadow rays, and which of them were live before the step.
@@ -611,8 +611,8 @@ impl<F: Width> Tracer<F> {
     /// widest vectors and traverses them together: `stokes bench limit` on an AMD EPYC
     /// Zen 3 replays a Cornell box's camera rays at 25–29 M rays/s as this SoA stream, 22
     /// as 4-wide coherent packets. As an AoS stream (`rtcIntersect1M`) they replay at
-    /// 32–37, but in the renderer that measured no faster (README, "Streams filled while
-    /// each group is hot").
+    /// 32–37, but in the renderer that measured no faster (`docs/packets.md`, "Streams
+    /// filled while each group is hot").
     #[cfg(embree3)]
     fn trace_cameras(&mut self, scene: &Scene) {
         let stream = &mut *self.camera_rays;
