@@ -159,8 +159,19 @@ def cell(row):
 
 def main():
     out = sys.argv[1]
-    cpu = lines(os.path.join(out, "cpu.txt"))
-    print(f"CPU: {cpu[0].split(':', 1)[1].strip() if cpu else 'unknown'}\n")
+    machine = next(
+        (d["machine"] for name in ("render-cornell-box", "render-sphere-100k",
+                                   "threads-sphere-100k", "limit-cornell-box-packet")
+         if (d := load_json(os.path.join(out, f"{name}.json"))) and "machine" in d),
+        None,
+    )
+    if machine:
+        family = f" (family {machine['family']}, model {machine['model']})" if machine["family"] is not None else ""
+        print(f"CPU: {machine['cpu']}{family}, {machine['logical_cpus']} logical CPUs, "
+              f"Embree kernels up to {machine['embree_isa']}\n")
+    else:
+        cpu = lines(os.path.join(out, "cpu.txt"))
+        print(f"CPU: {cpu[0].split(':', 1)[1].strip() if cpu else 'unknown'}\n")
     cells = render_cells(out)
     llvm, scalar = mitsuba_rows(out)
     rows = [

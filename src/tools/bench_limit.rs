@@ -18,6 +18,7 @@
 //! fraction of that limit says how much of its time the shading takes: 1 would mean none.
 //! Render and replays run on the same pool of `threads` threads.
 
+use super::machine::Machine;
 use super::spread::median;
 use crate::accel::{Coherence, Ray, RaysN, Scene as Accel};
 use crate::integrator::render::{render, trace_rays, RenderOptions};
@@ -84,6 +85,8 @@ pub struct LimitReport {
     pub rays: &'static str,
     /// The render's path depth (−1 = unbounded).
     pub max_depth: i32,
+    /// The machine the figures came from.
+    pub machine: Machine,
     /// The render's pixel samples per second (median).
     pub render_samples_per_second: f64,
     /// Pixel samples per second if only Embree ran, each kind the fastest way.
@@ -176,6 +179,7 @@ pub fn bench_limit(
         threads: pool.current_num_threads(),
         rays: opts.render.method.rays.name(),
         max_depth: opts.render.max_depth,
+        machine: Machine::detect(),
         render_samples_per_second: render_rate,
         embree_samples_per_second: embree_rate,
         fraction: render_rate / embree_rate,
@@ -330,6 +334,7 @@ pub fn format_table(r: &LimitReport) -> String {
         "{}: {}x{}, {} spp, depth {}, --rays {}, {} thread(s)",
         r.scene, r.width, r.height, r.spp, r.max_depth, r.rays, r.threads
     );
+    let _ = writeln!(out, "{}", r.machine);
     let _ = writeln!(
         out,
         "{:>8} {:>10} {:>20} {:>10}  M rays/s by method",

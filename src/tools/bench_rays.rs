@@ -21,6 +21,7 @@
 //! The scene is reached through closures ([`RayBenchInput`]) so that this module depends
 //! only on [`crate::accel`].
 
+use super::machine::Machine;
 use super::spread::median;
 use crate::accel::{thread_pool, Coherence, Ray, RayHit4, Scene};
 use glam::Vec3;
@@ -83,13 +84,15 @@ pub struct RayBenchResult {
 }
 
 /// All figures of one scene; serialises as
-/// `{"scene", "triangles", "results": [{"query", "mode", "threads", "mrays_per_s"}]}`.
+/// `{"scene", "triangles", "machine", "results": [{"query", "mode", "threads", "mrays_per_s"}]}`.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct RayBenchReport {
     /// Scene name.
     pub scene: String,
     /// Triangles in the acceleration structure.
     pub triangles: usize,
+    /// The machine the figures came from.
+    pub machine: Machine,
     /// 12 figures: {camera, random, shadow} × {1 thread, all threads} × {single, packet}.
     pub results: Vec<RayBenchResult>,
 }
@@ -493,6 +496,7 @@ pub fn bench_rays(input: &RayBenchInput, opts: &RayBenchOptions) -> RayBenchRepo
     RayBenchReport {
         scene: input.name.clone(),
         triangles: scene.triangle_count(),
+        machine: Machine::detect(),
         results,
     }
 }
@@ -521,6 +525,7 @@ pub fn format_table(report: &RayBenchReport) -> String {
         "{}: {} triangles, Mrays/s (median of the runs)",
         report.scene, report.triangles
     );
+    let _ = writeln!(s, "{}", report.machine);
     let g1 = format!("{t1} {}", plural(t1));
     let gn = format!("{tn} {}", plural(tn));
     let gr = format!("{tn}T / {t1}T");

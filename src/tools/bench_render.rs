@@ -11,6 +11,7 @@
 //! A shared machine's load drifts over minutes, which a ratio of two medians keeps and a
 //! paired ratio divides out. Scene loading and the BVH build are not timed.
 
+use super::machine::Machine;
 use super::spread::{median, paired, Spread};
 use crate::integrator::render::{render, RenderOptions};
 use crate::method::{Axis, Layout, Method, Rays};
@@ -80,6 +81,8 @@ pub struct RenderBenchReport {
     pub width: u32,
     /// Image height.
     pub height: u32,
+    /// The machine the figures came from.
+    pub machine: Machine,
     /// Every figure.
     pub results: Vec<RenderBenchResult>,
 }
@@ -184,6 +187,7 @@ pub fn bench_render(
         scene: scene.name(),
         width: scene.camera.width,
         height: scene.camera.height,
+        machine: Machine::detect(),
         results,
     })
 }
@@ -208,6 +212,7 @@ pub fn format_table(report: &RenderBenchReport) -> String {
          to the other figure's run in the same repetition)",
         report.scene, report.width, report.height
     );
+    let _ = writeln!(s, "{}", report.machine);
     let media = report.results.iter().any(|r| r.medium_occupancy.is_some());
     let quartiles = report.results.iter().any(|r| r.runs.len() >= 4);
     let share =

@@ -12,7 +12,8 @@
 //!   differences to a reference and a table of their errors;
 //! - [`convert`]: `stokes convert-bispectral`, a measured matrix (BFC, CSV) as CSV;
 //! - [`bench_rays`], [`bench_render`], [`bench_limit`]: `stokes bench rays|render|limit`;
-//! - [`spread`]: the medians, quartiles and paired ratios they report.
+//! - [`spread`]: the medians, quartiles and paired ratios they report;
+//! - [`machine`]: the CPU each of their reports names.
 
 pub mod bench_limit;
 pub mod bench_rays;
@@ -22,6 +23,7 @@ pub mod converge;
 pub mod converge_chart;
 pub mod convert;
 pub mod figure;
+pub mod machine;
 pub mod merge;
 pub mod reference;
 pub mod spread;
