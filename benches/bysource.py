@@ -10,6 +10,8 @@ through inlining: each executed instruction of a callgrind run (recorded as for
            table "Where width 4 still costs more than width 1" in docs/packets.md
 --by line  the same, file and line
 --by step  the line of src/integrator/ it was inlined into (which part of the step)
+--by object  the object file (the stokes binary, libembree3.so, libc, ...): Embree's
+           share; BIN is then only named, not read
 
 --event E  count another of the run's events instead of instructions (Ir), e.g. Bcm,
            mispredicted conditional branches, from a run with `--branch-sim=yes`
@@ -47,6 +49,44 @@ def costs(binary, out, event):
                 p = line.split()
                 if in_binary and col is not None and len(p) > col:
                     per[int(p[0], 16)] += int(p[col])
+    return per
+
+
+def object_costs(out, event):
+    """Self cost of `event` per object file (`ob=`), names decompressed."""
+    names, per = {}, collections.Counter()
+    col, current, after_call, npos = None, None, False, 1
+
+    def name(spec):
+        m = re.match(r"\((\d+)\)\s*(.*)", spec.strip())
+        if not m:
+            return spec.strip()
+        if m[2]:
+            names[m[1]] = m[2]
+        return names.get(m[1], m[1])
+
+    with open(out) as f:
+        for line in f:
+            if line.startswith("positions:"):
+                npos = len(line.split()) - 1
+            elif line.startswith("events:"):
+                names_ = line.split()[1:]
+                if event not in names_:
+                    sys.exit(f"{out} has no event {event} (it has {' '.join(names_)})")
+                col = npos + names_.index(event)
+            elif line.startswith("ob="):
+                current = name(line[3:])
+            elif line.startswith("cob="):
+                name(line[4:])
+            elif line.startswith("calls="):
+                after_call = True
+            elif line[:1].isdigit() or line[:1] in "+-*":
+                if after_call:
+                    after_call = False
+                    continue
+                p = line.split()
+                if col is not None and len(p) > col:
+                    per[current.rsplit("/", 1)[-1]] += int(p[col])
     return per
 
 
@@ -98,6 +138,12 @@ def main():
     by = args[args.index("--by") + 1] if "--by" in args else "file"
     top = next((int(a) for a in args[3:] if a.isdigit()), 25)
     event = args[args.index("--event") + 1] if "--event" in args else "Ir"
+    if by == "object":
+        totals = object_costs(out, event)
+        print(f"total {sum(totals.values()) / samples:.1f} {event} per sample")
+        for k, cost in totals.most_common(top):
+            print(f"{cost / samples:8.1f}  {k}")
+        return
     per = costs(binary, out, event)
     if not per:
         sys.exit(f"{out} holds no instructions of {binary}: record it with this binary")
