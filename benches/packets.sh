@@ -28,13 +28,7 @@
 # 8. Busy lanes per part of the step (the `census` build, in target/census), Cornell box
 #    and fluorescent volume, packet and single.
 set -euo pipefail
-cd "$(dirname "$0")/.."
-out=${1:-out/packets}
-mkdir -p "$out"
-cargo build --release -q
-B=target/release/stokes
-part() { [[ " ${PARTS:-1 2 3 4 5 6} " == *" $1 "* ]]; }
-grep -m1 'model name' /proc/cpuinfo | tee "$out/cpu.txt"
+. "$(dirname "$0")/setup.sh" out/packets "1 2 3 4 5 6" "$@"
 
 if part 1; then
 echo "== 1. bench render"

@@ -20,13 +20,7 @@
 # fraction of the Embree limit >= 0.6 (part 3), >= 1.5x Mitsuba's llvm_ad_spectral and
 # >= 3x its scalar_spectral, fluorescence <= 1.3x (part 4).
 set -euo pipefail
-cd "$(dirname "$0")/.."
-out=${1:-out/targets}
-mkdir -p "$out"
-cargo build --release -q
-B=target/release/stokes
-part() { [[ " ${PARTS:-1 2 3 4} " == *" $1 "* ]]; }
-grep -m1 'model name' /proc/cpuinfo | tee "$out/cpu.txt"
+. "$(dirname "$0")/setup.sh" out/targets "1 2 3 4" "$@"
 seconds=${SECONDS_PER_FIGURE:-48}
 reps=${REPS:-16}
 
