@@ -26,36 +26,13 @@ import sys
 
 
 
-def costs(binary, out, event):
-    """Self cost of `event` per instruction address in `binary` (as `opmix.costs`)."""
-    name = binary.rsplit("/", 1)[-1]
-    per = collections.Counter()
-    col, in_binary, after_call = None, True, False
-    with open(out) as f:
-        for line in f:
-            if line.startswith("events:"):
-                names = line.split()[1:]
-                if event not in names:
-                    sys.exit(f"{out} has no event {event} (it has {' '.join(names)})")
-                col = 2 + names.index(event)
-            elif line.startswith("ob="):
-                in_binary = line.rstrip().endswith(name)
-            elif line.startswith("calls="):
-                after_call = True
-            elif line.startswith("0x"):
-                if after_call:
-                    after_call = False
-                    continue
-                p = line.split()
-                if in_binary and col is not None and len(p) > col:
-                    per[int(p[0], 16)] += int(p[col])
-    return per
-
-
-def object_costs(out, event):
-    """Self cost of `event` per object file (`ob=`), names decompressed."""
-    names, per = {}, collections.Counter()
-    col, current, after_call, npos = None, None, False, 1
+def self_costs(out, event):
+    """(object file, instruction address, self cost of `event`) for every cost line of a
+    callgrind output recorded with `--dump-instr=yes`: lines after a `calls=` line are
+    the callee's inclusive cost and are skipped, and compressed names (`ob=(3) /path`,
+    then `ob=(3)`) are expanded, so `--compress-strings` may be on or off."""
+    names = {}
+    col, npos, current, after_call = None, 1, None, False
 
     def name(spec):
         m = re.match(r"\((\d+)\)\s*(.*)", spec.strip())
@@ -70,23 +47,40 @@ def object_costs(out, event):
             if line.startswith("positions:"):
                 npos = len(line.split()) - 1
             elif line.startswith("events:"):
-                names_ = line.split()[1:]
-                if event not in names_:
-                    sys.exit(f"{out} has no event {event} (it has {' '.join(names_)})")
-                col = npos + names_.index(event)
+                events = line.split()[1:]
+                if event not in events:
+                    sys.exit(f"{out} has no event {event} (it has {' '.join(events)})")
+                col = npos + events.index(event)
             elif line.startswith("ob="):
                 current = name(line[3:])
             elif line.startswith("cob="):
                 name(line[4:])
             elif line.startswith("calls="):
                 after_call = True
-            elif line[:1].isdigit() or line[:1] in "+-*":
+            elif line.startswith("0x"):
                 if after_call:
                     after_call = False
                     continue
                 p = line.split()
                 if col is not None and len(p) > col:
-                    per[current.rsplit("/", 1)[-1]] += int(p[col])
+                    yield current, int(p[0], 16), int(p[col])
+
+
+def costs(binary, out, event):
+    """Self cost of `event` per instruction address in `binary` (as `opmix.costs`)."""
+    name = binary.rsplit("/", 1)[-1]
+    per = collections.Counter()
+    for obj, addr, cost in self_costs(out, event):
+        if obj is None or obj.endswith(name):
+            per[addr] += cost
+    return per
+
+
+def object_costs(out, event):
+    """Self cost of `event` per object file (`ob=`), by its file name."""
+    per = collections.Counter()
+    for obj, _, cost in self_costs(out, event):
+        per[(obj or "?").rsplit("/", 1)[-1]] += cost
     return per
 
 
