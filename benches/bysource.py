@@ -67,7 +67,7 @@ def self_costs(out, event):
 
 
 def costs(binary, out, event):
-    """Self cost of `event` per instruction address in `binary` (as `opmix.costs`)."""
+    """Self cost of `event` per instruction address in `binary` (`opmix.py` uses it too)."""
     name = binary.rsplit("/", 1)[-1]
     per = collections.Counter()
     for obj, addr, cost in self_costs(out, event):

@@ -16,6 +16,8 @@ import re
 import subprocess
 import sys
 
+from bysource import costs
+
 KINDS = [
     ("moves and shuffles", r"(mov\w*|unpck\w+|punpck\w+|shufps|pshufd|movlhps|movhlps)"),
     ("float arithmetic", r"(add|sub|mul|div|min|max|sqrt)(ss|ps|sd|pd)"),
@@ -35,27 +37,6 @@ KINDS = [
 ]
 
 
-def costs(binary, out):
-    """Self cost per instruction address in `binary` (a call's inclusive cost skipped)."""
-    name = binary.rsplit("/", 1)[-1]
-    per = collections.Counter()
-    in_binary, after_call = True, False
-    with open(out) as f:
-        for line in f:
-            if line.startswith("ob="):
-                in_binary = line.rstrip().endswith(name)
-            elif line.startswith("calls="):
-                after_call = True
-            elif line.startswith("0x"):
-                if after_call:
-                    after_call = False
-                    continue
-                p = line.split()
-                if in_binary and len(p) >= 3:
-                    per[int(p[0], 16)] += int(p[2])
-    return per
-
-
 def mnemonics(binary):
     dis = subprocess.run(
         ["objdump", "-d", "--no-show-raw-insn", binary], capture_output=True, text=True
@@ -71,7 +52,7 @@ def mnemonics(binary):
 def main():
     binary, out, samples = sys.argv[1], sys.argv[2], float(sys.argv[3])
     names = mnemonics(binary)
-    per = costs(binary, out)
+    per = costs(binary, out, "Ir")
     unknown = sum(c for a, c in per.items() if a not in names)
     if unknown > 0.01 * sum(per.values()):
         sys.exit(f"{out} does not match {binary}: record it with this binary")

@@ -4,7 +4,7 @@
 # one table (benches/targets.py) in OUT/targets.md:
 #
 #   benches/targets.sh [OUT_DIR]     # default out/targets; about 20 minutes on 2 cores
-#   PARTS="2 5" benches/targets.sh   # only the parts listed; the table shows what is there
+#   PARTS="2 3" benches/targets.sh   # only the parts listed; the table shows what is there
 #   SECONDS_PER_FIGURE=12 REPS=8 benches/targets.sh   # a shorter, noisier first part
 #
 # 1. Packets against single rays, paired (stokes bench render, REPS repetitions of
