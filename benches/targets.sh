@@ -12,7 +12,8 @@
 #    (512²) and the 100k-triangle sphere (1024²), depth 3 and unbounded, 1 and 2 threads,
 #    packet and packet8 against single.
 # 2. Two threads against one at depth 1 on the sphere, paired (16 repetitions of 1 s).
-# 3. The Cornell box's fraction of its Embree limit (stokes bench limit), packet and single.
+# 3. The Cornell box's fraction of its Embree limit (stokes bench limit, 8 renders of 2 s,
+#    each paired with its rays' replays), packet and single.
 # 4. Against Mitsuba 3, fluorescence's cost, and instructions per sample: parts 3, 4 and 5
 #    of benches/packets.sh (Mitsuba is skipped if `import mitsuba` fails).
 #
@@ -41,7 +42,7 @@ if part 3; then
     echo "== 3. fraction of the Embree limit"
     for rays in packet single; do
         $B bench limit scenes/cornell-box.toml --res 256x256 --threads 1 --rays "$rays" \
-            --seconds 4 --json >"$out/limit-cornell-box-$rays.json"
+            --seconds 16 --repetitions 8 --json >"$out/limit-cornell-box-$rays.json"
     done
 fi
 if part 4; then

@@ -1,25 +1,29 @@
 //! `stokes bench limit`: how close a render comes to Embree's own speed on the rays it
 //! traces.
 //!
-//! 1. The render is timed as `stokes render` runs it (median of `repetitions` runs of a
-//!    fixed spp sized to take about `seconds / repetitions`).
-//! 2. The same render is traced once more with every ray recorded, by kind: camera rays,
-//!    bounce rays, next-event shadow rays (occlusion) and shadow-ray segments through
-//!    media (closest hit). Every pixel sample draws from its own random streams, so these
-//!    are the rays the timed render traced.
-//! 3. Each kind is replayed through Embree alone in every way Embree offers — single rays,
+//! 1. The render is traced once with every ray recorded, by kind: camera rays, bounce
+//!    rays, next-event shadow rays (occlusion) and shadow-ray segments through media
+//!    (closest hit), at a fixed spp sized from a 1-spp warm-up to take about
+//!    `seconds / repetitions`. Every pixel sample draws from its own random streams, so
+//!    these are the rays every timed run of that render traces.
+//! 2. Each kind is replayed through Embree alone in every way Embree offers — single rays,
 //!    4- and 8-wide packets of consecutive recorded rays (as the render grouped them),
 //!    flagged coherent and incoherent, and (Embree 3) streams of 256 rays — filling
 //!    Embree's ray structures from the recording as a renderer must, and the fastest way
 //!    is kept for each kind.
+//! 3. `repetitions` times: the render is timed as `stokes render` runs it, and right after
+//!    it each kind is replayed once its fastest way.
 //!
 //! The Embree limit is the pixel samples per second of a renderer that did nothing but
 //! trace its rays the fastest way: samples ÷ Σ_kind (fastest replay seconds). The render's
 //! fraction of that limit says how much of its time the shading takes: 1 would mean none.
-//! Render and replays run on the same pool of `threads` threads.
+//! It is reported twice: the median render over the fastest replays of step 2, and the
+//! spread of the fractions of step 3's pairs, each a render and its replays timed seconds
+//! apart, which a shared host's drifting load moves less. Render and replays run on the
+//! same pool of `threads` threads.
 
 use super::machine::Machine;
-use super::spread::median;
+use super::spread::{median, paired, Spread};
 use crate::accel::{Coherence, Ray, RaysN, Scene as Accel};
 use crate::integrator::render::{render, trace_rays, RenderOptions};
 use crate::method::Axis;
@@ -38,8 +42,8 @@ pub struct LimitOptions {
     pub render: RenderOptions,
     /// Target seconds of the timed render, split over the repetitions.
     pub seconds: f64,
-    /// Timed runs of the render and of each replay; the median (render) and the fastest
-    /// (replays) are reported.
+    /// Timed runs of the render and of each replay; the median (render), the fastest
+    /// (replays) and the spread of the paired fractions are reported.
     pub repetitions: usize,
 }
 
@@ -93,6 +97,9 @@ pub struct LimitReport {
     pub embree_samples_per_second: f64,
     /// Render ÷ Embree limit.
     pub fraction: f64,
+    /// The same fraction from each repetition's render and the replays timed right after
+    /// it: median and quartiles.
+    pub fraction_paired: Spread,
     /// Every kind of ray.
     pub kinds: Vec<KindReport>,
 }
@@ -119,15 +126,7 @@ pub fn bench_limit(
     };
     let warm = time(1)?;
     let spp = ((opts.seconds / reps as f64 / warm.max(1e-6)).round() as u32).clamp(1, 4096);
-    let mut runs = Vec::with_capacity(reps);
-    for _ in 0..reps {
-        runs.push(pixels * spp as f64 / time(spp)?);
-    }
-    let render_rate = median(&runs);
-    progress(&format!(
-        "render: {spp} spp, {:.3} M samples/s",
-        render_rate / 1e6
-    ));
+    let samples = pixels * spp as f64;
 
     let log = trace_rays(scene, &opts.render, 0, spp);
     let accel = &scene.accel;
@@ -138,12 +137,13 @@ pub fn bench_limit(
         ("segment", &log.segment, false),
     ];
     let mut reports = Vec::new();
+    let mut fastest_runs: Vec<(&Vec<Ray>, bool, Method)> = Vec::new();
     for (kind, rays, occlusion) in kinds {
         if rays.is_empty() {
             continue;
         }
         let mut replays = Vec::new();
-        let mut fastest = ("", f64::INFINITY);
+        let mut fastest: (&'static str, f64, Option<Method>) = ("", f64::INFINITY, None);
         for (method, run) in methods() {
             let mut best = f64::INFINITY;
             for _ in 0..reps {
@@ -158,8 +158,11 @@ pub fn bench_limit(
                 mrays_per_second: rate / 1e6,
             });
             if best < fastest.1 {
-                fastest = (method, best);
+                fastest = (method, best, Some(run));
             }
+        }
+        if let Some(run) = fastest.2 {
+            fastest_runs.push((rays, occlusion, run));
         }
         reports.push(KindReport {
             kind,
@@ -170,7 +173,25 @@ pub fn bench_limit(
         });
     }
     let embree: f64 = reports.iter().map(|k| k.seconds).sum();
-    let embree_rate = pixels * spp as f64 / embree;
+    let embree_rate = samples / embree;
+
+    // Each render, then its rays replayed the fastest way, seconds apart.
+    let (mut render_runs, mut embree_runs) = (Vec::new(), Vec::new());
+    for _ in 0..reps {
+        render_runs.push(samples / time(spp)?);
+        let start = Instant::now();
+        for (rays, occlusion, run) in &fastest_runs {
+            pool.install(|| run(accel, rays, *occlusion));
+        }
+        embree_runs.push(samples / start.elapsed().as_secs_f64());
+    }
+    let render_rate = median(&render_runs);
+    let fraction_paired = paired(&render_runs, &embree_runs);
+    progress(&format!(
+        "render: {spp} spp, {:.3} M samples/s; paired fraction {:.2}",
+        render_rate / 1e6,
+        fraction_paired.median
+    ));
     Ok(LimitReport {
         scene: scene.name(),
         width: w,
@@ -183,6 +204,7 @@ pub fn bench_limit(
         render_samples_per_second: render_rate,
         embree_samples_per_second: embree_rate,
         fraction: render_rate / embree_rate,
+        fraction_paired,
         kinds: reports,
     })
 }
@@ -362,6 +384,12 @@ pub fn format_table(r: &LimitReport) -> String {
         r.render_samples_per_second / 1e6,
         r.embree_samples_per_second / 1e6,
         r.fraction
+    );
+    let p = &r.fraction_paired;
+    let _ = writeln!(
+        out,
+        "fraction from each render and its replays: median {:.2} (quartiles {:.2}-{:.2})",
+        p.median, p.q1, p.q3
     );
     out
 }
