@@ -143,7 +143,7 @@ pub fn bench_limit(
             continue;
         }
         let mut replays = Vec::new();
-        let mut fastest: (&'static str, f64, Option<Method>) = ("", f64::INFINITY, None);
+        let mut fastest: Option<(&'static str, f64, Method)> = None;
         for (method, run) in methods() {
             let mut best = f64::INFINITY;
             for _ in 0..reps {
@@ -157,19 +157,20 @@ pub fn bench_limit(
                 method,
                 mrays_per_second: rate / 1e6,
             });
-            if best < fastest.1 {
-                fastest = (method, best, Some(run));
+            if fastest.is_none_or(|(_, seconds, _)| best < seconds) {
+                fastest = Some((method, best, run));
             }
         }
-        if let Some(run) = fastest.2 {
-            fastest_runs.push((rays, occlusion, run));
-        }
+        let Some((name, seconds, run)) = fastest else {
+            continue;
+        };
+        fastest_runs.push((rays, occlusion, run));
         reports.push(KindReport {
             kind,
             rays: rays.len() as u64,
             replays,
-            fastest: fastest.0,
-            seconds: fastest.1,
+            fastest: name,
+            seconds,
         });
     }
     let embree: f64 = reports.iter().map(|k| k.seconds).sum();
