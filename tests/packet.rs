@@ -389,20 +389,23 @@ fn gathering_the_camera_paths_changes_no_result_and_fills_the_camera_packets() {
     }
 }
 
-/// Tracing the camera rays of the groups that start together as one stream, ahead of
-/// their step, changes no sample at widths 4 and 8: the stream hands each group the hits
-/// its own packet query would find. Embree answers a stream with its widest packet kernel
-/// (8 lanes under AVX2, 16 under AVX-512), not the 4-wide one, so the two are different
-/// kernels and the test does not demand the same bits everywhere: at most one sample in
-/// 200 may differ (a ray through an edge that two kernels give to different triangles;
-/// none differs on an AMD EPYC Zen 3, AVX2, nor under the SSE2, SSE4.2 and AVX kernels).
-/// A stream that handed hits to the wrong lanes or groups changes most samples. The
-/// wavelengths are drawn before any ray is traced and must match exactly. Most camera
-/// rays go through the stream: all but those of rounds that start a single group (at
-/// 32², measured 882–924 of 1024 at width 4 and 478–672 at width 8).
+/// Tracing the groups' closest-hit rays as streams ahead of their step (the camera rays
+/// of the groups that start together as one coherent stream, the other groups' rays as
+/// one incoherent stream) changes no sample at widths 4 and 8, with either stream alone
+/// or both: each stream hands each group the hits its own packet query would find.
+/// Embree answers a stream with its widest packet kernel (8 lanes under AVX2, 16 under
+/// AVX-512), not the 4-wide one, so the two are different kernels and the test does not
+/// demand the same bits everywhere: at most one sample in 200 may differ (a ray through
+/// an edge that two kernels give to different triangles; none differs on an AMD EPYC
+/// Zen 3, AVX2, nor under the SSE2, SSE4.2 and AVX kernels). A stream that handed hits to
+/// the wrong lanes or groups changes most samples. The wavelengths are drawn before any
+/// ray is traced and must match exactly. Most rays go through the streams: the camera
+/// rays of all but the rounds that start a single group (at 32², measured 882–924 of
+/// 1024 at width 4 and 478–672 at width 8), and the bounce rays of all but the rounds
+/// that bounce a single group.
 #[cfg(embree3)]
 #[test]
-fn camera_rays_in_a_stream_change_no_result() {
+fn rays_in_streams_change_no_result() {
     for file in [
         "cornell-box.toml",
         "fluorescent-surfaces.toml",
@@ -413,50 +416,74 @@ fn camera_rays_in_a_stream_change_no_result() {
         let po = path_opts(Dispersion::Drop);
         let n = 1024u32;
         for width in [4, 8] {
-            let run = |stream| {
-                fn with<F: Width>(stream: bool) -> Tracer<F> {
+            let run = |cameras, bounces| {
+                fn with<F: Width>(cameras: bool, bounces: bool) -> Tracer<F> {
                     let mut tracer = Tracer::default();
-                    tracer.stream_cameras = stream;
+                    tracer.stream_cameras = cameras;
+                    tracer.stream_bounces = bounces;
+                    tracer.log = Some(Box::default());
                     tracer
                 }
                 match width {
-                    4 => trace_samples(&mut with::<F4>(stream), &scene, &po, n),
-                    _ => trace_samples(&mut with::<F8>(stream), &scene, &po, n),
+                    4 => trace_samples(&mut with::<F4>(cameras, bounces), &scene, &po, n),
+                    _ => trace_samples(&mut with::<F8>(cameras, bounces), &scene, &po, n),
                 }
             };
-            let ((a, la, none), (b, lb, streamed)) = (run(false), run(true));
             let bits = |v: &[Vec4]| {
                 v.iter()
                     .map(|x| x.to_array().map(f32::to_bits))
                     .collect::<Vec<_>>()
             };
-            let what = format!("{file}, width {width}");
-            let (a, b) = (bits(&a), bits(&b));
-            let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-            assert!(
-                differ * 200 <= n as usize,
-                "{what}: the stream changed {differ} of {n} samples"
+            let (a, la, none) = run(false, false);
+            assert_eq!(
+                (none.0, none.1),
+                (0, 0),
+                "{file}, width {width}: rays streamed with streams off"
             );
-            assert_eq!(la, lb, "{what}: the stream changed a wavelength");
-            assert_eq!(none, 0, "{what}: rays streamed with streams off");
-            assert!(
-                streamed as f64 > 0.3 * n as f64 && streamed <= n as u64,
-                "{what}: {streamed} of {n} camera rays streamed"
-            );
-            eprintln!("{what}: {streamed} of {n} camera rays streamed, {differ} samples differ");
+            let a = bits(&a);
+            for (cameras, bounces) in [(true, false), (false, true), (true, true)] {
+                let (b, lb, (camera, bounce, traced)) = run(cameras, bounces);
+                let what = format!("{file}, width {width}, cameras {cameras}, bounces {bounces}");
+                let b = bits(&b);
+                let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+                assert!(
+                    differ * 200 <= n as usize,
+                    "{what}: the streams changed {differ} of {n} samples"
+                );
+                assert_eq!(la, lb, "{what}: the streams changed a wavelength");
+                match cameras {
+                    true => assert!(
+                        camera as f64 > 0.3 * n as f64 && camera <= n as u64,
+                        "{what}: {camera} of {n} camera rays streamed"
+                    ),
+                    false => assert_eq!(camera, 0, "{what}: camera rays streamed"),
+                }
+                match bounces {
+                    true => assert!(
+                        bounce as f64 > 0.6 * traced as f64 && bounce <= traced,
+                        "{what}: {bounce} of {traced} bounce rays streamed"
+                    ),
+                    false => assert_eq!(bounce, 0, "{what}: bounce rays streamed"),
+                }
+                eprintln!(
+                    "{what}: {camera} of {n} camera rays and {bounce} of {traced} bounce rays \
+                     streamed, {differ} samples differ"
+                );
+            }
         }
     }
 }
 
 /// Pixel samples 0..n (sample index 0 of pixels 0..n) through `tracer`: the results and
-/// wavelengths per sample (plus a sentinel slot that nothing may write), and how many
-/// camera rays went through the stream.
+/// wavelengths per sample (plus a sentinel slot that nothing may write), how many
+/// camera and bounce rays went through the streams, and how many bounce rays it traced
+/// (if it logs its rays).
 fn trace_samples<F: Width>(
     tracer: &mut Tracer<F>,
     scene: &Scene,
     po: &PathOptions,
     n: u32,
-) -> (Vec<Vec4>, Vec<Vec4>, u64) {
+) -> (Vec<Vec4>, Vec<Vec4>, (u64, u64, u64)) {
     let mut results = vec![Vec4::ZERO; n as usize + 1];
     let mut lambdas = vec![Vec4::ZERO; n as usize + 1];
     let w = scene.camera.width;
@@ -473,7 +500,13 @@ fn trace_samples<F: Width>(
     } else {
         tracer.run::<false>(scene, po, SEED, &mut work, r, l, &mut stats);
     }
-    (results, lambdas, tracer.camera_rays_streamed)
+    let bounces = tracer.log.as_ref().map_or(0, |log| log.bounce.len() as u64);
+    let streamed = (
+        tracer.camera_rays_streamed,
+        tracer.bounce_rays_streamed,
+        bounces,
+    );
+    (results, lambdas, streamed)
 }
 
 /// A glass slab of index `ior` in a white furnace (a box emitting 1 inwards). A lossless

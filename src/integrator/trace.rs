@@ -67,7 +67,7 @@ pub trait Width: Float {
     /// `stream` as one packet of W (the other lanes, and those Embree cannot trace,
     /// skipped: checked for all lanes at once); returns where it starts.
     fn push_rays(
-        stream: &mut CameraStream,
+        stream: &mut RayStream,
         org: &V3<Self>,
         dir: &V3<Self>,
         tfar: Self,
@@ -75,11 +75,12 @@ pub trait Width: Float {
     ) -> usize;
     /// The closest hits of the packet that [`Self::push_rays`] put at `at`, once the
     /// stream was traced (the lanes it skipped miss).
-    fn stream_hits(stream: &CameraStream, at: usize) -> Hits<Self>;
+    fn stream_hits(stream: &RayStream, at: usize) -> Hits<Self>;
 }
 
-/// The camera rays of the groups in flight, traced as one stream.
-pub type CameraStream = accel::PacketStream<PATHS_IN_FLIGHT>;
+/// Closest-hit rays of the groups in flight, traced as one stream: one for the camera
+/// rays, one for the bounce rays ([`Tracer::trace_streams`]).
+pub type RayStream = accel::PacketStream<PATHS_IN_FLIGHT>;
 
 /// The lanes whose ray `org + t·dir`, t in `[0, tfar]`, Embree can trace
 /// ([`accel::Ray::is_traceable`]), all at once: every coordinate within ±[`FLT_LARGE`]
@@ -134,7 +135,7 @@ impl Width for f32 {
 
     #[inline(always)]
     fn push_rays(
-        stream: &mut CameraStream,
+        stream: &mut RayStream,
         org: &V3<f32>,
         dir: &V3<f32>,
         tfar: f32,
@@ -150,7 +151,7 @@ impl Width for f32 {
     }
 
     #[inline(always)]
-    fn stream_hits(stream: &CameraStream, at: usize) -> Hits<f32> {
+    fn stream_hits(stream: &RayStream, at: usize) -> Hits<f32> {
         Hits::from_hit(stream.hits::<1>(at).hit(0))
     }
 }
@@ -251,7 +252,7 @@ macro_rules! packet_width {
 
             #[inline(always)]
             fn push_rays(
-                stream: &mut CameraStream,
+                stream: &mut RayStream,
                 org: &V3<$f>,
                 dir: &V3<$f>,
                 tfar: $f,
@@ -264,7 +265,7 @@ macro_rules! packet_width {
             }
 
             #[inline(always)]
-            fn stream_hits(stream: &CameraStream, at: usize) -> Hits<$f> {
+            fn stream_hits(stream: &RayStream, at: usize) -> Hits<$f> {
                 $soa::hits(&stream.hits::<$w>(at))
             }
         }
@@ -329,9 +330,18 @@ struct Group<F: Float> {
     paths: Paths<F>,
     shadows: Shadows<F>,
     live: F::Mask,
-    /// Where the paths' camera rays are in the camera stream, if they were traced ahead
-    /// of the step ([`Tracer::trace_cameras`]).
-    camera_at: Option<usize>,
+    /// Which of the round's streams holds the paths' rays, and where, if they were
+    /// traced ahead of the step ([`Tracer::trace_streams`]).
+    rays_at: Option<(Stream, usize)>,
+}
+
+/// The two closest-hit streams of a round.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Stream {
+    /// Groups whose live paths all start at the camera: coherent.
+    Camera,
+    /// The other groups' rays: incoherent.
+    Bounce,
 }
 
 impl<F: Float> Group<F> {
@@ -340,7 +350,7 @@ impl<F: Float> Group<F> {
             paths,
             shadows: Shadows::default(),
             live: F::Mask::splat(false),
-            camera_at: None,
+            rays_at: None,
         }
     }
 }
@@ -355,10 +365,13 @@ pub struct Tracer<F: Width> {
     shadow_rays: accel::OcclusionStream,
     /// The camera rays of the groups that start together, in group order (Embree 3).
     #[cfg_attr(embree4, allow(dead_code))]
-    camera_rays: Box<CameraStream>,
-    /// Live paths whose camera rays are queued in `camera_rays`.
+    camera_rays: Box<RayStream>,
+    /// The rays of the other groups with live paths, in group order (Embree 3).
     #[cfg_attr(embree4, allow(dead_code))]
-    camera_queued: u64,
+    bounce_rays: Box<RayStream>,
+    /// Camera rays queued in `camera_rays`, bounce rays in `bounce_rays`.
+    #[cfg_attr(embree4, allow(dead_code))]
+    queued: [u64; 2],
     /// Packet lanes that carried a ray (W > 1).
     pub lanes_used: u64,
     /// Lanes of all packets traced (W per query, W > 1).
@@ -371,8 +384,11 @@ pub struct Tracer<F: Width> {
     /// traced any: how full the camera packets go to Embree.
     pub camera_lanes_used: u64,
     pub camera_lanes_total: u64,
-    /// Camera rays traced in a stream ahead of their step ([`Self::trace_cameras`]).
+    /// Camera rays traced in a stream ahead of their step ([`Self::trace_streams`]).
     pub camera_rays_streamed: u64,
+    /// Bounce rays (closest hit, not from the camera) traced in a stream ahead of their
+    /// step.
+    pub bounce_rays_streamed: u64,
     /// Refill a group's lanes only when every one of them is free (the samples of a
     /// packet run until the longest path ends, as Mitsuba 3 runs them), to measure what
     /// refilling buys.
@@ -387,8 +403,11 @@ pub struct Tracer<F: Width> {
     /// hook to turn it off.
     pub sort: bool,
     /// Trace the camera rays of the groups whose paths all start at the camera as one
-    /// coherent stream ([`Self::trace_cameras`]); a test hook to turn it off.
+    /// coherent stream ([`Self::trace_streams`]); a test hook to turn it off.
     pub stream_cameras: bool,
+    /// Trace the other groups' closest-hit rays as one incoherent stream; a test hook
+    /// to turn it off.
+    pub stream_bounces: bool,
 }
 
 impl<F: Width> Default for Tracer<F> {
@@ -398,7 +417,8 @@ impl<F: Width> Default for Tracer<F> {
             pending: Vec::new(),
             shadow_rays: accel::OcclusionStream::default(),
             camera_rays: Box::default(),
-            camera_queued: 0,
+            bounce_rays: Box::default(),
+            queued: [0; 2],
             lanes_used: 0,
             lanes_total: 0,
             medium_lanes_used: 0,
@@ -406,11 +426,13 @@ impl<F: Width> Default for Tracer<F> {
             camera_lanes_used: 0,
             camera_lanes_total: 0,
             camera_rays_streamed: 0,
+            bounce_rays_streamed: 0,
             lockstep: false,
             usable: u32::MAX,
             log: None,
             sort: true,
             stream_cameras: true,
+            stream_bounces: true,
         }
     }
 }
@@ -439,7 +461,7 @@ impl<F: Width> Tracer<F> {
         stats: &mut PathStats,
     ) {
         let sort = self.sort && F::GROUPS > 1 && !self.lockstep;
-        let stream_cameras = cfg!(embree3) && sort && self.stream_cameras;
+        let stream_rays = cfg!(embree3) && sort && (self.stream_cameras || self.stream_bounces);
         // Without media the shadow rays of all groups go to Embree as one stream, each
         // group's pushed right after its step, while its state is in the cache.
         let stream_shadows = !MEDIA && F::GROUPS > 1;
@@ -449,23 +471,24 @@ impl<F: Width> Tracer<F> {
                 // whole groups, and a path moves into a free lane instead of trading.
                 self.sort_lanes(|g| !g.paths.alive);
                 self.camera_rays.clear();
+                self.bounce_rays.clear();
                 for k in 0..F::GROUPS {
                     self.refill(k, scene, opts, seed, work, lambdas);
                     // Queued while the refill's writes are in the cache (with media,
                     // after the paths in media are gathered).
-                    if stream_cameras && !MEDIA {
-                        self.queue_cameras(k);
+                    if stream_rays && !MEDIA {
+                        self.queue_rays(k);
                     }
                 }
                 if MEDIA {
                     self.sort_lanes(|g| g.paths.alive & F::Mask::from_fn(|i| g.paths.in_medium(i)));
-                    if stream_cameras {
-                        (0..F::GROUPS).for_each(|k| self.queue_cameras(k));
+                    if stream_rays {
+                        (0..F::GROUPS).for_each(|k| self.queue_rays(k));
                     }
                 }
                 #[cfg(embree3)]
-                if stream_cameras {
-                    self.trace_cameras(scene);
+                if stream_rays {
+                    self.trace_streams(scene);
                 }
             }
             if stream_shadows {
@@ -586,46 +609,78 @@ impl<F: Width> Tracer<F> {
         }
     }
 
-    /// Queues the camera rays of group `k` in the round's camera stream if all its live
-    /// paths start at the camera (after [`Self::sort_lanes`], every group the refill
-    /// filled).
+    /// Queues group `k`'s closest-hit rays in one of the round's streams: in the camera
+    /// stream if all its live paths start at the camera (after [`Self::sort_lanes`],
+    /// every group the refill filled), else in the bounce stream.
     #[inline(always)]
-    fn queue_cameras(&mut self, k: usize) {
+    fn queue_rays(&mut self, k: usize) {
         let g = &mut self.groups[k];
         let (live, p) = (g.paths.alive, &g.paths);
-        if live.any() && (live & !p.at_camera).none() {
+        let stream = match (live & !p.at_camera).none() {
+            true => Stream::Camera,
+            false => Stream::Bounce,
+        };
+        let on = match stream {
+            Stream::Camera => self.stream_cameras,
+            Stream::Bounce => self.stream_bounces,
+        };
+        if live.any() && on {
+            let rays = match stream {
+                Stream::Camera => &mut self.camera_rays,
+                Stream::Bounce => &mut self.bounce_rays,
+            };
             let inf = F::splat(f32::INFINITY);
-            g.camera_at = Some(F::push_rays(
-                &mut self.camera_rays,
-                &p.org,
-                &p.dir,
-                inf,
-                live,
-            ));
-            self.camera_queued += live.bits().count_ones() as u64;
+            let at = F::push_rays(rays, &p.org, &p.dir, inf, live);
+            g.rays_at = Some((stream, at));
+            // Counted by kind: a bounce group may hold camera rays too.
+            let kind = match stream {
+                Stream::Camera => live,
+                Stream::Bounce => live & !p.at_camera,
+            };
+            self.queued[stream as usize] += kind.bits().count_ones() as u64;
         }
     }
 
-    /// Traces the queued camera rays as one coherent stream (`rtcIntersectNp`); each
-    /// group's step reads its hits there. Embree packs the stream into packets of its
-    /// widest vectors and traverses them together: `stokes bench limit` on an AMD EPYC
-    /// Zen 3 replays a Cornell box's camera rays at 25–29 M rays/s as this SoA stream, 22
-    /// as 4-wide coherent packets. As an AoS stream (`rtcIntersect1M`) they replay at
-    /// 32–37, but in the renderer that measured no faster (`docs/packets.md`, "Streams
-    /// filled while each group is hot").
+    /// Traces the queued rays as two streams (`rtcIntersectNp`), the camera rays as
+    /// coherent and the bounce rays as incoherent; each group's step reads its hits
+    /// there. A stream of one packet is traced in its step instead.
+    ///
+    /// Embree packs a stream into packets of its widest vectors and traverses them
+    /// together: `stokes bench limit` on an AMD EPYC Zen 3 replays a Cornell box's camera
+    /// rays at 25–29 M rays/s as this SoA stream, 22 as 4-wide coherent packets. As an
+    /// AoS stream (`rtcIntersect1M`) they replay at 32–37, but in the renderer that
+    /// measured no faster (`docs/packets.md`, "Streams filled while each group is hot").
+    /// The bounce stream saves the per-query call overhead of the 4-wide packets
+    /// (`docs/packets.md`, "Bounce rays as a stream").
     #[cfg(embree3)]
-    fn trace_cameras(&mut self, scene: &Scene) {
-        let stream = &mut *self.camera_rays;
-        if stream.len() <= F::WIDTH {
-            // One packet at most: traced as it is, in its step.
-            if !stream.is_empty() {
-                self.groups.iter_mut().for_each(|g| g.camera_at = None);
+    fn trace_streams(&mut self, scene: &Scene) {
+        for (stream, coherence) in [
+            (Stream::Camera, Coherence::Coherent),
+            (Stream::Bounce, Coherence::Incoherent),
+        ] {
+            let rays = match stream {
+                Stream::Camera => &mut *self.camera_rays,
+                Stream::Bounce => &mut *self.bounce_rays,
+            };
+            if rays.len() <= F::WIDTH {
+                // One packet at most: traced as it is, in its step.
+                if !rays.is_empty() {
+                    for g in self.groups.iter_mut() {
+                        if g.rays_at.is_some_and(|(s, _)| s == stream) {
+                            g.rays_at = None;
+                        }
+                    }
+                }
+            } else {
+                scene.accel.intersect_packets(rays, coherence);
+                let queued = self.queued[stream as usize];
+                match stream {
+                    Stream::Camera => self.camera_rays_streamed += queued,
+                    Stream::Bounce => self.bounce_rays_streamed += queued,
+                }
             }
-        } else {
-            scene.accel.intersect_packets(stream, Coherence::Coherent);
-            self.camera_rays_streamed += self.camera_queued;
         }
-        self.camera_queued = 0;
+        self.queued = [0; 2];
     }
 
     /// Bit k for every group k.
@@ -763,7 +818,7 @@ impl<F: Width> Tracer<F> {
         let Group {
             paths,
             shadows,
-            camera_at,
+            rays_at,
             ..
         } = &mut self.groups[k];
         let live = paths.alive;
@@ -779,8 +834,9 @@ impl<F: Width> Tracer<F> {
             RayLog::push(&mut log.camera, camera, &paths.org, &paths.dir, inf);
             RayLog::push(&mut log.bounce, live & !camera, &paths.org, &paths.dir, inf);
         }
-        let hits = match camera_at.take() {
-            Some(at) => F::stream_hits(&self.camera_rays, at),
+        let hits = match rays_at.take() {
+            Some((Stream::Camera, at)) => F::stream_hits(&self.camera_rays, at),
+            Some((Stream::Bounce, at)) => F::stream_hits(&self.bounce_rays, at),
             None => F::intersect(accel, &paths.org, &paths.dir, inf, live, coherence),
         };
         if F::WIDTH > 1 {

@@ -320,7 +320,7 @@ fn stream(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
 /// (`rtcIntersectNp`, `rtcOccludedNp`).
 #[cfg(embree3)]
 fn soa_stream(a: &Accel, rays: &[Ray], occlusion: bool, c: Coherence) -> u64 {
-    let mut s = Box::<crate::integrator::trace::CameraStream>::default();
+    let mut s = Box::<crate::integrator::trace::RayStream>::default();
     let mut hits = 0;
     for part in rays.chunks(crate::integrator::trace::PATHS_IN_FLIGHT) {
         s.clear();
