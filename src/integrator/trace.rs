@@ -335,13 +335,13 @@ struct Group<F: Float> {
     rays_at: Option<(Stream, usize)>,
 }
 
-/// The two closest-hit streams of a round.
+/// The two closest-hit streams of a round, and their index in [`Tracer`]'s arrays.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Stream {
     /// Groups whose live paths all start at the camera: coherent.
-    Camera,
+    Camera = 0,
     /// The other groups' rays: incoherent.
-    Bounce,
+    Bounce = 1,
 }
 
 impl<F: Float> Group<F> {
@@ -363,13 +363,13 @@ pub struct Tracer<F: Width> {
     pending: Vec<Paths<f32>>,
     /// The groups' shadow rays, in group and lane order.
     shadow_rays: accel::OcclusionStream,
-    /// The camera rays of the groups that start together, in group order (Embree 3).
+    /// The round's closest-hit rays traced ahead of their steps, by [`Stream`]: the
+    /// camera rays of the groups that start together, and the rays of the other groups
+    /// with live paths, each in group order (Embree 3).
     #[cfg_attr(embree4, allow(dead_code))]
-    camera_rays: Box<RayStream>,
-    /// The rays of the other groups with live paths, in group order (Embree 3).
-    #[cfg_attr(embree4, allow(dead_code))]
-    bounce_rays: Box<RayStream>,
-    /// Camera rays queued in `camera_rays`, bounce rays in `bounce_rays`.
+    streams: [Box<RayStream>; 2],
+    /// Rays of each stream's kind queued in it this round, by [`Stream`] (a bounce
+    /// group's camera rays are not counted).
     #[cfg_attr(embree4, allow(dead_code))]
     queued: [u64; 2],
     /// Packet lanes that carried a ray (W > 1).
@@ -416,8 +416,7 @@ impl<F: Width> Default for Tracer<F> {
             groups: (0..F::GROUPS).map(|_| Group::new(Paths::empty())).collect(),
             pending: Vec::new(),
             shadow_rays: accel::OcclusionStream::default(),
-            camera_rays: Box::default(),
-            bounce_rays: Box::default(),
+            streams: Default::default(),
             queued: [0; 2],
             lanes_used: 0,
             lanes_total: 0,
@@ -470,8 +469,7 @@ impl<F: Width> Tracer<F> {
                 // Free lanes gathered first: the refill then starts its camera paths in
                 // whole groups, and a path moves into a free lane instead of trading.
                 self.sort_lanes(|g| !g.paths.alive);
-                self.camera_rays.clear();
-                self.bounce_rays.clear();
+                self.streams.iter_mut().for_each(|s| s.clear());
                 for k in 0..F::GROUPS {
                     self.refill(k, scene, opts, seed, work, lambdas);
                     // Queued while the refill's writes are in the cache (with media,
@@ -616,28 +614,18 @@ impl<F: Width> Tracer<F> {
     fn queue_rays(&mut self, k: usize) {
         let g = &mut self.groups[k];
         let (live, p) = (g.paths.alive, &g.paths);
-        let stream = match (live & !p.at_camera).none() {
-            true => Stream::Camera,
-            false => Stream::Bounce,
-        };
-        let on = match stream {
-            Stream::Camera => self.stream_cameras,
-            Stream::Bounce => self.stream_bounces,
+        let bounces = live & !p.at_camera;
+        // Counted by kind: a bounce group's camera rays are not counted.
+        let (stream, on, counted) = match bounces.none() {
+            true => (Stream::Camera, self.stream_cameras, live),
+            false => (Stream::Bounce, self.stream_bounces, bounces),
         };
         if live.any() && on {
-            let rays = match stream {
-                Stream::Camera => &mut self.camera_rays,
-                Stream::Bounce => &mut self.bounce_rays,
-            };
+            let rays = &mut self.streams[stream as usize];
             let inf = F::splat(f32::INFINITY);
             let at = F::push_rays(rays, &p.org, &p.dir, inf, live);
             g.rays_at = Some((stream, at));
-            // Counted by kind: a bounce group may hold camera rays too.
-            let kind = match stream {
-                Stream::Camera => live,
-                Stream::Bounce => live & !p.at_camera,
-            };
-            self.queued[stream as usize] += kind.bits().count_ones() as u64;
+            self.queued[stream as usize] += counted.bits().count_ones() as u64;
         }
     }
 
@@ -658,10 +646,7 @@ impl<F: Width> Tracer<F> {
             (Stream::Camera, Coherence::Coherent),
             (Stream::Bounce, Coherence::Incoherent),
         ] {
-            let rays = match stream {
-                Stream::Camera => &mut *self.camera_rays,
-                Stream::Bounce => &mut *self.bounce_rays,
-            };
+            let rays = &mut *self.streams[stream as usize];
             if rays.len() <= F::WIDTH {
                 // One packet at most: traced as it is, in its step.
                 if !rays.is_empty() {
@@ -835,8 +820,7 @@ impl<F: Width> Tracer<F> {
             RayLog::push(&mut log.bounce, live & !camera, &paths.org, &paths.dir, inf);
         }
         let hits = match rays_at.take() {
-            Some((Stream::Camera, at)) => F::stream_hits(&self.camera_rays, at),
-            Some((Stream::Bounce, at)) => F::stream_hits(&self.bounce_rays, at),
+            Some((stream, at)) => F::stream_hits(&self.streams[stream as usize], at),
             None => F::intersect(accel, &paths.org, &paths.dir, inf, live, coherence),
         };
         if F::WIDTH > 1 {
