@@ -640,6 +640,51 @@ fn time_budget_renders_whole_passes_within_it() {
 }
 
 #[test]
+fn passes_of_several_samples_render_the_same_image() {
+    let dir = scratch("pass_spp");
+    // A packet tracer fills and drains its paths in flight once per pass and row pair, so
+    // larger passes change which lanes and rounds carry a sample, never its bits.
+    for rays in ["packet", "single"] {
+        let one = dir.join(format!("one-{rays}.exr"));
+        render_ok(&one, "16x16", &["--spp", "10", "--rays", rays]);
+        let four = dir.join(format!("four-{rays}.exr"));
+        let stats = dir.join(format!("four-{rays}.json"));
+        render_ok(
+            &four,
+            "16x16",
+            &[
+                "--spp",
+                "10",
+                "--pass-spp",
+                "4",
+                "--rays",
+                rays,
+                "--stats-json",
+                &s(&stats),
+            ],
+        );
+        assert_eq!(pixels(&one), pixels(&four), "--rays {rays}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        // 4 + 4 + 2.
+        assert_eq!(json["passes"].as_u64(), Some(3), "--rays {rays}");
+        assert_eq!(header(&four)["spp"], "10");
+    }
+    // Under a time budget whole passes run: the spp reached is a multiple of the pass.
+    let out = dir.join("time.exr");
+    render_ok(&out, "8x8", &["--time", "0.3", "--pass-spp", "3"]);
+    let spp: u32 = header(&out)["spp"].parse().unwrap();
+    assert!(spp >= 3 && spp.is_multiple_of(3), "{spp} spp in passes of 3");
+    for bad in ["0", "-1", "two"] {
+        let out = dir.join("bad.exr");
+        let (ok, _, err) =
+            run(stokes().args(["render", &s(&cornell()), "-o", &s(&out), "--pass-spp", bad]));
+        assert!(!ok && err.contains("--pass-spp"), "--pass-spp {bad}: {err}");
+        assert!(!out.exists(), "--pass-spp {bad} wrote {}", out.display());
+    }
+}
+
+#[test]
 fn under_a_time_budget_every_pass_starts_within_it() {
     // A pass starts only if, at the mean pass time so far, it ends within the budget. So
     // with pass end times t_1 … t_n, the check before pass n saw an elapsed time e ≥ t_{n−1}

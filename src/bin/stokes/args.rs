@@ -236,10 +236,21 @@ pub struct RenderArgs {
     /// Samples per pixel (default: the scene's; with --time, a maximum).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Render whole 1-spp passes while the next one is expected to end within this many
+    /// Render whole passes while the next one is expected to end within this many
     /// seconds (scene loading not counted); --spp, if given, is then a maximum.
     #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true)]
     pub time: Option<f64>,
+    /// Samples per pixel per pass: passes are what --time budgets, what Ctrl-C lets
+    /// finish and what progress counts. Larger passes keep a packet tracer's paths in
+    /// flight longer on small images (fewer rounds that fill or drain them); the image
+    /// does not change.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 1,
+        allow_negative_numbers = true
+    )]
+    pub pass_spp: u32,
     /// Draw sample indices [K, K + spp) instead of [0, spp): parts with disjoint ranges
     /// are independent and can be merged with `stokes merge`.
     #[arg(long, default_value_t = 0)]

@@ -90,6 +90,9 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
         }
         _ => {}
     }
+    if a.pass_spp == 0 {
+        return Err(at_least_one("--pass-spp"));
+    }
     if a.inject_nonfinite_every == Some(0) {
         return Err(at_least_one("--inject-nonfinite-every"));
     }
@@ -104,7 +107,8 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
     };
     files.check()?;
 
-    let bar = progress_bar(max_spp.filter(|_| a.time.is_none()), height);
+    let passes = max_spp.map(|n| n.div_ceil(a.pass_spp));
+    let bar = progress_bar(passes.filter(|_| a.time.is_none()), height);
     install_interrupt_handler(bar.clone());
     let on_row = || bar.iter().for_each(|b| b.inc(1));
     let mut log = pass_logger(|p| match (max_spp, a.time) {
@@ -123,7 +127,7 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
         first_sample: a.seed_offset,
         max_spp,
         time_budget: a.time,
-        batch: 1,
+        batch: a.pass_spp,
         stop: Some(&STOP),
         inject_nonfinite_every: a.inject_nonfinite_every,
     };

@@ -30,13 +30,14 @@ pub fn install_interrupt_handler(bar: Option<indicatif::ProgressBar>) {
     }
 }
 
-/// A progress bar on a terminal: rows of `spp` passes, or a spinner under a time budget.
-pub fn progress_bar(spp: Option<u32>, rows: u32) -> Option<indicatif::ProgressBar> {
+/// A progress bar on a terminal: `rows` rows of each of `passes` passes, or a spinner
+/// under a time budget.
+pub fn progress_bar(passes: Option<u32>, rows: u32) -> Option<indicatif::ProgressBar> {
     use indicatif::{ProgressBar, ProgressStyle};
     if !std::io::stderr().is_terminal() {
         return None;
     }
-    let b = match spp {
+    let b = match passes {
         Some(n) => ProgressBar::new(n as u64 * rows as u64).with_style(
             ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {msg}, eta {eta}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar())
