@@ -3,15 +3,18 @@
 `stokes` binaries: counts that do not depend on the machine's load, for changes whose
 effect is in memory traffic rather than in instructions (which callgrind alone counts).
 
-    python3 benches/cachesim.py [--scene S] [--res WxH] [--spp N] [--rays R] [--max-depth D]
-        BIN [BIN ...]
+    python3 benches/cachesim.py [--scene S] [--res WxH] [--spp N] [--pass-spp P] [--rays R]
+        [--max-depth D] BIN [BIN ...]
 
-Each binary renders `stokes render S --res WxH --spp N --threads 1 --rays R --max-depth D`
-under `valgrind --tool=cachegrind --cache-sim=yes`, which simulates this machine's
+Each binary renders `stokes render S --res WxH --spp N --pass-spp P --threads 1 --rays R
+--max-depth D` under `valgrind --tool=cachegrind --cache-sim=yes`, which simulates this machine's
 first-level instruction and data caches and its last-level cache (sizes as valgrind reads
 them from the CPU; it prints them). The whole process is counted, scene load and EXR
 output included, so compare binaries on the same render rather than reading the
-absolute figures.
+absolute figures. Passes are N spp (one pass) by default, so that a packet tracer keeps
+its paths in flight as in a long render; if any binary predates `--pass-spp` (stop 50),
+all render in passes of 1, as the figures of stops 43–49 in docs/packets.md were
+counted (at 128 pixels a row pair then starts and drains 128 paths every 256 samples).
 
 Columns, per pixel sample: Ir (instructions), I1 and D1 (first-level instruction and
 data misses, reads and writes), LL (last-level misses), and a proxy of cycles,
@@ -51,7 +54,7 @@ def run(binary, a, out_dir):
     cmd = [
         "valgrind", "--tool=cachegrind", "--cache-sim=yes",
         f"--cachegrind-out-file={out}",
-        binary, "render", a.scene, "--res", a.res, "--spp", str(a.spp),
+        binary, "render", a.scene, "--res", a.res, "--spp", str(a.spp), *a.passes,
         "--threads", "1", "--rays", a.rays, "--max-depth", str(a.max_depth), "-o", exr,
     ]
     p = subprocess.run(cmd, capture_output=True, text=True)
@@ -65,14 +68,23 @@ def main():
     ap.add_argument("--scene", default="scenes/cornell-box.toml")
     ap.add_argument("--res", default="64x64")
     ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--pass-spp", type=int, default=None,
+                    help="samples per pixel per pass (default: --spp, one pass)")
     ap.add_argument("--rays", default="packet")
     ap.add_argument("--max-depth", type=int, default=-1)
     ap.add_argument("bins", nargs="+")
     a = ap.parse_args()
     w, h = (int(x) for x in a.res.split("x"))
     samples = w * h * a.spp
-    print(f"{a.scene} {a.res}, {a.spp} spp, --rays {a.rays}, --max-depth {a.max_depth}, "
-          f"1 thread; per pixel sample ({samples} samples), whole process")
+    new = all("--pass-spp" in subprocess.run([b, "render", "--help"], capture_output=True,
+                                             text=True).stdout for b in a.bins)
+    pass_spp = (a.pass_spp or a.spp) if new else 1
+    if a.pass_spp and not new:
+        sys.exit("--pass-spp: a binary does not have it (it predates stop 50)")
+    a.passes = ["--pass-spp", str(pass_spp)] if new else []
+    print(f"{a.scene} {a.res}, {a.spp} spp in passes of {pass_spp}, --rays {a.rays}, "
+          f"--max-depth {a.max_depth}, 1 thread; per pixel sample ({samples} samples), "
+          "whole process")
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for b in a.bins:

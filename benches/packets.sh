@@ -107,28 +107,48 @@ print(f"cost per sample with dyes / without: {plain / dyed:.3f}")
 fi
 if part 5; then
 echo "== 5. instructions per sample (callgrind)"
-per_sample() { # binary scene rays
-    local a b
-    a=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$1" render "$2" --res 64x64 --spp 1 \
-        --threads 1 --rays "$3" -o "$out/cg.exr" 2>&1 | awk '/Collected/{print $4}')
-    b=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$1" render "$2" --res 64x64 --spp 9 \
-        --threads 1 --rays "$3" -o "$out/cg.exr" 2>&1 | awk '/Collected/{print $4}')
-    echo $(((b - a) / (8 * 64 * 64)))
-}
-bins=("$B")
+# Each binary is named by its commit (`+` if the working tree differs from it): with BASE
+# set, benches/targets.py reads the two as base and new and reports the change, counted
+# side by side in this run.
+head=$(git rev-parse --short HEAD)
+git diff --quiet HEAD -- src embree-sys Cargo.toml Cargo.lock build.rs || head="$head+"
+bins=("$B") names=("$head")
 if [ -n "${BASE:-}" ]; then
     tmp=$(mktemp -d)
     git worktree add -q "$tmp/src" "$BASE"
     (cd "$tmp/src" && CARGO_TARGET_DIR="$tmp/target" cargo build --release -q)
-    bins+=("$tmp/target/release/stokes")
+    bins+=("$tmp/target/release/stokes") names+=("base:$(git rev-parse --short "$BASE")")
 fi
+# One pass of 8 spp counted: a 16-spp render minus an 8-spp one, both in passes of 8
+# (`--pass-spp`), over 8 × 64² samples, so that a packet tracer keeps its 128 paths in
+# flight as in a long render. Binaries from before `--pass-spp` (stop 50) are all counted
+# the old way, 9 spp minus 1 spp in passes of 1, which at 64² also counts the packets'
+# fill and drain in every pass (docs/packets.md, "Passes of one sample per pixel, counted").
+measure="one pass of 8 spp"
 for bin in "${bins[@]}"; do
+    "$bin" render --help | grep -q -- --pass-spp || measure="passes of 1 spp (a binary without --pass-spp)"
+done
+per_sample() { # binary scene rays
+    local runs a b
+    case $measure in
+        one*) runs=("--spp 8 --pass-spp 8" "--spp 16 --pass-spp 8") ;;
+        *) runs=("--spp 1" "--spp 9") ;;
+    esac
+    # shellcheck disable=SC2086 # the runs' options split into words
+    a=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$1" render "$2" --res 64x64 ${runs[0]} \
+        --threads 1 --rays "$3" -o "$out/cg.exr" 2>&1 | awk '/Collected/{print $4}')
+    # shellcheck disable=SC2086
+    b=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$1" render "$2" --res 64x64 ${runs[1]} \
+        --threads 1 --rays "$3" -o "$out/cg.exr" 2>&1 | awk '/Collected/{print $4}')
+    echo $(((b - a) / (8 * 64 * 64)))
+}
+for n in "${!bins[@]}"; do
     for s in scenes/cornell-box.toml scenes/fluorescent-volume-440nm.toml; do
         for rays in packet single; do
-            echo "$bin $s $rays: $(per_sample "$bin" "$s" "$rays") instructions per sample"
+            echo "${names[n]} $s $rays: $(per_sample "${bins[n]}" "$s" "$rays") instructions per sample"
         done
     done
-done | tee "$out/instructions.txt"
+done | sed "1i measured as: $measure" | tee "$out/instructions.txt"
 if [ -n "${BASE:-}" ]; then git worktree remove --force "$tmp/src"; rm -rf "$tmp"; fi
 
 fi

@@ -184,16 +184,42 @@ def fluorescence_row(out):
 
 
 def instructions_row(out):
+    """Part 5's counts: the new build's, and with BASE set each figure's change from the
+    base build counted in the same run (builds of other runs differ by a few tenths of a
+    per cent with the same renderer code, so only side-by-side counts make a change)."""
     text = lines(os.path.join(out, "instructions.txt"))
     if text is None:
         return "not measured"
-    parts = []
+    new, base, base_name = {}, {}, None
+    # Files of stop 50 on name their measure; older ones used passes of 1 spp.
+    measure = "9 spp minus 1 spp in passes of 1"
     for l in text:
-        m = re.match(r"\S+ scenes/(\S+)\.toml (\S+): (\d+) instructions per sample", l)
-        if m:
-            parts.append(f"{m[1]} {m[2]} {int(m[3]):,}")
-    note = " (callgrind, 64², 9 spp minus 1 spp, 1 thread)"
-    return ("; ".join(parts) + note, None) if parts else "not measured"
+        if l.startswith("measured as: "):
+            measure = l[len("measured as: "):]
+            if measure.startswith("one pass of 8 spp"):
+                measure = "16 spp minus 8 spp in passes of 8"
+            else:
+                measure = "9 spp minus 1 spp in passes of 1"
+            continue
+        m = re.match(r"(\S+) scenes/(\S+)\.toml (\S+): (\d+) instructions per sample", l)
+        if not m:
+            continue
+        if m[1].startswith("base:"):
+            base_name = m[1][len("base:"):]
+            base[(m[2], m[3])] = int(m[4])
+        else:
+            new[(m[2], m[3])] = int(m[4])
+    if not new:
+        return "not measured"
+
+    def figure(key, n):
+        b = base.get(key)
+        change = f" ({b:,} → {n:,}, {100 * (n - b) / b:+.1f} %)" if b else ""
+        return f"{key[0]} {key[1]} {n:,}{change}"
+
+    against = f"; changes from {base_name}, counted in the same run" if base_name else ""
+    note = f" (callgrind, 64², {measure}, 1 thread{against})"
+    return "; ".join(figure(k, n) for k, n in new.items()) + note, None
 
 
 def cell(row):

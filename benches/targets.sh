@@ -6,6 +6,7 @@
 #   benches/targets.sh [OUT_DIR]     # default out/targets; about 20 minutes on 2 cores
 #   PARTS="2 3" benches/targets.sh   # only the parts listed; the table shows what is there
 #   SECONDS_PER_FIGURE=12 REPS=8 benches/targets.sh   # a shorter, noisier first part
+#   BASE=REV benches/targets.sh      # part 4 also counts REV's instructions, same run
 #
 # 1. Packets against single rays, paired (stokes bench render, REPS repetitions of
 #    SECONDS_PER_FIGURE / REPS seconds per figure; default 16 of 3 s): the Cornell box
