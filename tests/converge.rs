@@ -759,6 +759,7 @@ fn reference_of(scene: &stokes::scene::Scene, t: &TestRender, dir: &Path) -> Pat
         scene,
         opts: &t.opts,
         spp: 64,
+        pass_spp: 1,
         out: &reference,
         resume: false,
         stop: None,

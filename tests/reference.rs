@@ -31,7 +31,8 @@ fn settings() -> TestRender {
     TestRender::at(8, 8).seed(SEED).threads(1).max_depth(5)
 }
 
-/// Renders (or with `resume`, extends) the reference `out` with `spp` more samples.
+/// Renders (or with `resume`, extends) the reference `out` with `spp` more samples, in
+/// passes of 1 spp.
 fn run(
     scene: &Scene,
     t: &TestRender,
@@ -39,10 +40,23 @@ fn run(
     spp: u32,
     resume: bool,
 ) -> stokes::Result<Report> {
+    run_in_passes(scene, t, out, spp, resume, 1)
+}
+
+/// [`run`] in passes of `pass_spp`.
+fn run_in_passes(
+    scene: &Scene,
+    t: &TestRender,
+    out: &Path,
+    spp: u32,
+    resume: bool,
+    pass_spp: u32,
+) -> stokes::Result<Report> {
     let job = Job {
         scene,
         opts: &t.opts,
         spp,
+        pass_spp,
         out,
         resume,
         stop: None,
@@ -117,6 +131,25 @@ fn resumed_reference_equals_one_reference_of_the_total_spp() {
         d4 > 1e-3,
         "4 spp against 8 spp: relative difference only {d4:.2e}"
     );
+}
+
+#[test]
+fn passes_of_several_samples_give_the_same_reference() {
+    // Packet rays, whose tracer fills and drains its paths once per pass: the pass size
+    // changes which lanes carry a sample, never its bits or the order of the sums.
+    let dir = scratch("reference-passes");
+    let t = settings().rays(stokes::method::Rays::Packet);
+    let scene = cornell(&t);
+    let (ones, fours) = (dir.join("ones.exr"), dir.join("fours.exr"));
+    let a = run_in_passes(&scene, &t, &ones, 6, false, 1).unwrap();
+    let b = run_in_passes(&scene, &t, &fours, 6, false, 4).unwrap();
+    assert_eq!((a.passes, b.passes), (6, 2));
+    assert_eq!(read_exr(&ones).unwrap().2, read_exr(&fours).unwrap().2);
+    assert_eq!(
+        read_exr(&variance_path(&ones)).unwrap().2,
+        read_exr(&variance_path(&fours)).unwrap().2
+    );
+    assert_eq!(header_attributes(&fours)["sample_ranges"], "3:0..6");
 }
 
 #[test]

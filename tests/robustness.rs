@@ -674,7 +674,10 @@ fn passes_of_several_samples_render_the_same_image() {
     let out = dir.join("time.exr");
     render_ok(&out, "8x8", &["--time", "0.3", "--pass-spp", "3"]);
     let spp: u32 = header(&out)["spp"].parse().unwrap();
-    assert!(spp >= 3 && spp.is_multiple_of(3), "{spp} spp in passes of 3");
+    assert!(
+        spp >= 3 && spp.is_multiple_of(3),
+        "{spp} spp in passes of 3"
+    );
     for bad in ["0", "-1", "two"] {
         let out = dir.join("bad.exr");
         let (ok, _, err) =

@@ -113,6 +113,9 @@ pub struct Job<'a> {
     pub opts: &'a RenderOptions,
     /// Samples per pixel to add.
     pub spp: u32,
+    /// Samples per pixel per pass (at least 1; see `stokes render --pass-spp`): a stop
+    /// lets the pass in flight finish.
+    pub pass_spp: u32,
     /// The reference EXR; its variance goes beside it.
     pub out: &'a Path,
     /// Whether an existing reference is extended (else it is an error).
@@ -172,7 +175,7 @@ pub fn render(job: &Job, on_pass: &mut dyn FnMut(PassDone)) -> Result<Report> {
     let prog = Progressive {
         first_sample,
         max_spp: Some(job.spp),
-        batch: 1,
+        batch: job.pass_spp,
         stop: job.stop,
         ..Default::default()
     };

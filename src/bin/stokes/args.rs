@@ -389,6 +389,15 @@ pub struct ReferenceArgs {
     /// an existing output, start one. Without --resume an existing output is an error.
     #[arg(long)]
     pub resume: bool,
+    /// Samples per pixel per pass, as for `stokes render`: Ctrl-C lets the pass in flight
+    /// finish; larger passes cost less on small images with packets.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 1,
+        allow_negative_numbers = true
+    )]
+    pub pass_spp: u32,
     #[command(flatten)]
     pub method: MethodArgs,
 }

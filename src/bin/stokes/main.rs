@@ -426,6 +426,9 @@ fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode> {
     if a.spp == 0 {
         return Err(at_least_one("--spp"));
     }
+    if a.pass_spp == 0 {
+        return Err(at_least_one("--pass-spp"));
+    }
     let opts = a.method.options(&mut scene, &a.scene, a.spp)?;
     install_interrupt_handler(None);
     let mut on_pass = pass_logger(|p| {
@@ -436,6 +439,7 @@ fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode> {
         scene: &scene,
         opts: &opts,
         spp: a.spp,
+        pass_spp: a.pass_spp,
         out: &a.output,
         resume: a.resume,
         stop: Some(&STOP),
