@@ -240,17 +240,8 @@ pub struct RenderArgs {
     /// seconds (scene loading not counted); --spp, if given, is then a maximum.
     #[arg(long, value_parser = parse_seconds, allow_negative_numbers = true)]
     pub time: Option<f64>,
-    /// Samples per pixel per pass: passes are what --time budgets, what Ctrl-C lets
-    /// finish and what progress counts. Larger passes keep a packet tracer's paths in
-    /// flight longer on small images (fewer rounds that fill or drain them); the image
-    /// does not change.
-    #[arg(
-        long,
-        value_name = "N",
-        default_value_t = 1,
-        allow_negative_numbers = true
-    )]
-    pub pass_spp: u32,
+    #[command(flatten)]
+    pub passes: PassArgs,
     /// Draw sample indices [K, K + spp) instead of [0, spp): parts with disjoint ranges
     /// are independent and can be merged with `stokes merge`.
     #[arg(long, default_value_t = 0)]
@@ -389,8 +380,19 @@ pub struct ReferenceArgs {
     /// an existing output, start one. Without --resume an existing output is an error.
     #[arg(long)]
     pub resume: bool,
-    /// Samples per pixel per pass, as for `stokes render`: Ctrl-C lets the pass in flight
-    /// finish; larger passes cost less on small images with packets.
+    #[command(flatten)]
+    pub passes: PassArgs,
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+/// The size of a progressive render's passes (`render`, `reference`).
+#[derive(Args, Clone)]
+pub struct PassArgs {
+    /// Samples per pixel per pass: passes are what --time budgets, what Ctrl-C lets
+    /// finish and what progress counts. Larger passes keep a packet tracer's paths in
+    /// flight longer on small images (fewer rounds that fill or drain them); the image
+    /// does not change.
     #[arg(
         long,
         value_name = "N",
@@ -398,8 +400,6 @@ pub struct ReferenceArgs {
         allow_negative_numbers = true
     )]
     pub pass_spp: u32,
-    #[command(flatten)]
-    pub method: MethodArgs,
 }
 
 #[derive(Args, Clone)]

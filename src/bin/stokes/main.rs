@@ -65,6 +65,14 @@ fn at_least_one(option: &str) -> Error {
     Error::option(option, "expected at least 1")
 }
 
+/// `--pass-spp`, at least 1.
+fn pass_size(p: &PassArgs) -> Result<u32> {
+    match p.pass_spp {
+        0 => Err(at_least_one("--pass-spp")),
+        n => Ok(n),
+    }
+}
+
 fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
     let mut scene = load(&a.scene)?;
     // With a time budget, --spp is a maximum and the scene's spp does not apply.
@@ -90,9 +98,7 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
         }
         _ => {}
     }
-    if a.pass_spp == 0 {
-        return Err(at_least_one("--pass-spp"));
-    }
+    let pass_spp = pass_size(&a.passes)?;
     if a.inject_nonfinite_every == Some(0) {
         return Err(at_least_one("--inject-nonfinite-every"));
     }
@@ -107,7 +113,7 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
     };
     files.check()?;
 
-    let passes = max_spp.map(|n| n.div_ceil(a.pass_spp));
+    let passes = max_spp.map(|n| n.div_ceil(pass_spp));
     let bar = progress_bar(passes.filter(|_| a.time.is_none()), height);
     install_interrupt_handler(bar.clone());
     let on_row = || bar.iter().for_each(|b| b.inc(1));
@@ -127,7 +133,7 @@ fn cmd_render(a: &RenderArgs) -> Result<ExitCode> {
         first_sample: a.seed_offset,
         max_spp,
         time_budget: a.time,
-        batch: a.pass_spp,
+        batch: pass_spp,
         stop: Some(&STOP),
         inject_nonfinite_every: a.inject_nonfinite_every,
     };
@@ -426,9 +432,7 @@ fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode> {
     if a.spp == 0 {
         return Err(at_least_one("--spp"));
     }
-    if a.pass_spp == 0 {
-        return Err(at_least_one("--pass-spp"));
-    }
+    let pass_spp = pass_size(&a.passes)?;
     let opts = a.method.options(&mut scene, &a.scene, a.spp)?;
     install_interrupt_handler(None);
     let mut on_pass = pass_logger(|p| {
@@ -439,7 +443,7 @@ fn cmd_reference(a: &ReferenceArgs) -> Result<ExitCode> {
         scene: &scene,
         opts: &opts,
         spp: a.spp,
-        pass_spp: a.pass_spp,
+        pass_spp,
         out: &a.output,
         resume: a.resume,
         stop: Some(&STOP),
