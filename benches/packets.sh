@@ -126,7 +126,7 @@ fi
 # fill and drain in every pass (docs/packets.md, "Passes of one sample per pixel, counted").
 measure="one pass of 8 spp"
 for bin in "${bins[@]}"; do
-    "$bin" render --help | grep -q -- --pass-spp || measure="passes of 1 spp (a binary without --pass-spp)"
+    [[ $("$bin" render --help) == *--pass-spp* ]] || measure="passes of 1 spp (a binary without --pass-spp)"
 done
 per_sample() { # binary scene rays
     local runs a b
